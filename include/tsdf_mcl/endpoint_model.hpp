@@ -1,0 +1,40 @@
+#pragma once
+// The endpoint (likelihood-field) sensor model over a TSDF: a scan point transformed into the map lands at
+// signed distance d from the nearest surface; p(point) = z_hit * N(d; 0, sigma_hit) + z_rand / max_range,
+// and a point in an unknown cell or outside the map counts as p_rand = z_rand / max_range only.
+#include <cmath>
+#include <cstdint>
+
+#include "tsdf_mcl/tsdf_map.hpp"
+
+namespace tsdf_mcl {
+
+enum class Likelihood : std::uint32_t {
+  kProduct = 0,  // log w = Σ log p(point): the proper joint likelihood, in the log domain (no underflow)
+  kSum = 1,      // log w = log Σ p(point): the reference implementation's summed form, for comparison
+};
+enum class Interpolation : std::uint32_t { kNearest = 0, kTrilinear = 1 };
+
+struct EndpointModel {
+  float sigma_hit = 0.1f;  // m
+  float z_hit = 0.9f;
+  float z_rand = 0.1f;
+  float max_range = 60.0f;  // m: p_rand = z_rand / max_range
+  Likelihood likelihood = Likelihood::kProduct;
+  Interpolation interpolation = Interpolation::kNearest;
+
+  // Throws Error if a parameter is out of range (sigma <= 0, mixture weights negative or both zero, ...).
+  void validate() const;
+
+  double log_p_rand() const { return std::log(static_cast<double>(z_rand) / max_range); }
+  // p(point) given the map sample at its end. This is the CPU definition the shader mirrors.
+  double point_likelihood(const TsdfMap::Sample& sample) const {
+    const double p_rand = static_cast<double>(z_rand) / max_range;
+    if (!sample.known) return p_rand;
+    const double s = sigma_hit;
+    const double d = sample.distance;
+    return z_hit * std::exp(-0.5 * d * d / (s * s)) / (s * 2.5066282746310002) + p_rand;
+  }
+};
+
+}  // namespace tsdf_mcl

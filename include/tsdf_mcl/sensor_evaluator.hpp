@@ -1,0 +1,106 @@
+#pragma once
+// The sensor update: the log-weight of every particle under the endpoint model, plus one reduction over all
+// particles. Two backends compute the same numbers: Vulkan compute shaders (endpoint_weight.comp, reduce.comp)
+// and a multi-threaded CPU evaluator (the reference and the fallback without a Vulkan device).
+//
+// Particles live in buffers owned by the evaluator (Vulkan storage buffers, mapped; host memory on the CPU
+// backend) as structure-of-arrays; the filter writes them in place. Two sets exist so resampling can write the
+// new generation into the spare set and swap, without copies.
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tsdf_mcl/endpoint_model.hpp"
+#include "tsdf_mcl/tsdf_map.hpp"
+
+namespace tsdf_mcl {
+
+// Views into one particle set; each array has `capacity` floats. Pose = world_T_sensor as a position and a
+// unit quaternion.
+struct ParticleArrays {
+  float* x = nullptr;
+  float* y = nullptr;
+  float* z = nullptr;
+  float* qw = nullptr;
+  float* qx = nullptr;
+  float* qy = nullptr;
+  float* qz = nullptr;
+  float* log_weight = nullptr;  // written by evaluate()
+  std::size_t capacity = 0;
+
+  Eigen::Vector3f position(std::size_t i) const { return {x[i], y[i], z[i]}; }
+  Eigen::Quaternionf rotation(std::size_t i) const { return {qw[i], qx[i], qy[i], qz[i]}; }
+  void set(std::size_t i, const Eigen::Vector3f& p, const Eigen::Quaternionf& q) const {
+    x[i] = p.x(); y[i] = p.y(); z[i] = p.z();
+    qw[i] = q.w(); qx[i] = q.x(); qy[i] = q.y(); qz[i] = q.z();
+  }
+};
+
+// Result of the reduction over particles 0..n-1 (weights w_i = exp(log_weight_i - max_log_weight)).
+struct WeightSummary {
+  float max_log_weight = 0.0f;
+  double weight_sum = 0.0;                                   // Σ w
+  Eigen::Vector3d mean_position = Eigen::Vector3d::Zero();  // Σ w p / Σ w
+  // Σ w q (w, x, y, z) with each q's sign flipped to the hemisphere of the reference quaternion; its
+  // normalized direction is the weighted rotation mean.
+  Eigen::Vector4d quaternion_sum = Eigen::Vector4d::Zero();
+  // Σ exp(log_weight / points): the per-point geometric-mean likelihood summed over particles, a fit measure
+  // independent of particle and point counts once divided by n (used by recovery).
+  double fit_sum = 0.0;
+};
+
+// GPU time per dispatch from timestamp queries (NaN where unavailable), and host wall time of the update.
+struct UpdateTimings {
+  double weight_gpu_ms = std::nan("");
+  double reduce_gpu_ms = std::nan("");
+  double upload_ms = 0.0;     // points into their buffer
+  double evaluate_ms = 0.0;   // submit to results visible on the host (weighting + reduction)
+};
+
+class SensorEvaluator {
+ public:
+  virtual ~SensorEvaluator() = default;
+  virtual std::string backend() const = 0;      // "vulkan" or "cpu"
+  virtual std::string device_name() const = 0;
+
+  // Grows buffers if needed (never shrinks); invalidates previously returned ParticleArrays when it grows.
+  virtual void reserve(std::size_t particles, std::size_t points) = 0;
+  virtual ParticleArrays particles() = 0;        // the active set
+  virtual ParticleArrays spare_particles() = 0;  // the other set
+  virtual void swap_particles() = 0;
+
+  // Scan points in the sensor frame; must be finite.
+  virtual void set_points(const std::vector<Eigen::Vector3f>& points) = 0;
+  // Weights particles 0..n-1 of the active set against the current points; reduces.
+  virtual WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
+                                 const Eigen::Quaternionf& reference_rotation) = 0;
+  virtual const UpdateTimings& last_timings() const = 0;
+};
+
+enum class Backend { kAuto, kVulkan, kCpu };
+Backend parse_backend(const std::string& name);  // "auto" | "vulkan" | "cpu"; throws Error otherwise
+
+struct EvaluatorOptions {
+  Backend backend = Backend::kAuto;
+  // Vulkan: enable VK_LAYER_KHRONOS_validation; every message goes to on_validation_message
+  // (default: printed to stderr).
+  bool validation = false;
+  std::function<void(const std::string&)> on_validation_message;
+  int device_index = -1;  // -1: prefer a discrete/integrated GPU, then any device (lavapipe)
+  int cpu_threads = 0;    // 0: all hardware threads
+};
+
+// Builds the evaluator. With kAuto, tries Vulkan and falls back to the CPU; `note` (if given) receives one
+// line saying which backend was picked and why.
+std::unique_ptr<SensorEvaluator> make_evaluator(const TsdfMap& map, const EvaluatorOptions& options,
+                                                std::string* note = nullptr);
+
+// Single-particle CPU definition (double accumulation) used by tests as the ground truth.
+double reference_log_weight(const TsdfMap& map, const EndpointModel& model, const Eigen::Vector3f& position,
+                            const Eigen::Quaternionf& rotation, const std::vector<Eigen::Vector3f>& points);
+
+}  // namespace tsdf_mcl

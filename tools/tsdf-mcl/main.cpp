@@ -1,0 +1,55 @@
+// tsdf-mcl: global 6-DoF Monte Carlo localization of a LiDAR in a TSDF map (see README.md).
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <string>
+
+#include "commands.hpp"
+#include "tsdf_mcl/error.hpp"
+
+namespace {
+
+struct Command {
+  const char* name;
+  int (*run)(int, char**);
+  const char* summary;
+};
+
+constexpr Command kCommands[] = {
+    {"build-map", tsdf_mcl::cli::run_build_map, "build a TSDF map from a mesh, a dataset's scans or a reference HDF5 map"},
+    {"info", tsdf_mcl::cli::run_info, "print a map's resolution, extent, blocks, memory and known/free volume"},
+    {"simulate", tsdf_mcl::cli::run_simulate, "simulate a LiDAR driving through a scene; writes a dataset"},
+    {"localize", tsdf_mcl::cli::run_localize, "run the particle filter over a dataset; writes trajectory.tum, report.json"},
+    {"evaluate", tsdf_mcl::cli::run_evaluate, "compare an estimated trajectory with the dataset's ground truth"},
+    {"bench", tsdf_mcl::cli::run_bench, "time the sensor update per backend and particle count (JSON lines)"},
+    {"render", tsdf_mcl::cli::run_render, "draw a map, particles and trajectories to PNG"},
+};
+
+void print_usage(std::FILE* out) {
+  std::fprintf(out, "usage: tsdf-mcl <command> [options]   (tsdf-mcl <command> --help for its options)\n\ncommands:\n");
+  for (const auto& c : kCommands) std::fprintf(out, "  %-10s %s\n", c.name, c.summary);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+    print_usage(argc < 2 ? stderr : stdout);
+    return argc < 2 ? 2 : 0;
+  }
+  for (const auto& c : kCommands) {
+    if (std::strcmp(argv[1], c.name) != 0) continue;
+    try {
+      return c.run(argc, argv);
+    } catch (const tsdf_mcl::Error& e) {
+      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, e.what());
+      return 1;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, e.what());
+      return 3;
+    }
+  }
+  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'\n", argv[1]);
+  print_usage(stderr);
+  return 2;
+}

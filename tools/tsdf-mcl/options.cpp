@@ -1,0 +1,151 @@
+#include "options.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl::cli {
+
+Options::Options(std::string command, std::string usage, std::vector<OptionSpec> specs, int argc, char** argv,
+                 int first)
+    : command_(std::move(command)), usage_(std::move(usage)), specs_(std::move(specs)) {
+  for (int i = first; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      help_ = true;
+      continue;
+    }
+    if (arg.rfind("--", 0) != 0 || arg.size() == 2) {
+      positional_.push_back(arg);
+      continue;
+    }
+    std::string name = arg.substr(2);
+    std::optional<std::string> value;
+    if (const auto eq = name.find('='); eq != std::string::npos) {
+      value = name.substr(eq + 1);
+      name = name.substr(0, eq);
+    }
+    const OptionSpec& s = spec(name);
+    if (s.value_name.empty()) {
+      if (value) throw Error(command_ + ": option --" + name + " takes no value");
+      values_[name] = "1";
+      continue;
+    }
+    if (!value) {
+      if (i + 1 >= argc) throw Error(command_ + ": option --" + name + " needs a value (" + s.value_name + ")");
+      value = argv[++i];
+    }
+    values_[name] = *value;
+  }
+}
+
+const OptionSpec& Options::spec(const std::string& name) const {
+  for (const auto& s : specs_) {
+    if (s.name == name) return s;
+  }
+  throw Error(command_ + ": unknown option --" + name + " (see tsdf-mcl " + command_ + " --help)");
+}
+
+std::string Options::help_text() const {
+  std::ostringstream out;
+  out << "usage: " << usage_ << "\n\noptions:\n";
+  for (const auto& s : specs_) {
+    std::string left = "  --" + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
+    if (left.size() < 30) left.resize(30, ' ');
+    else left += "\n" + std::string(30, ' ');
+    out << left << s.help;
+    if (!s.default_value.empty()) out << " [default: " << s.default_value << "]";
+    out << "\n";
+  }
+  return out.str();
+}
+
+bool Options::has(const std::string& name) const {
+  spec(name);
+  return values_.count(name) != 0;
+}
+
+bool Options::flag(const std::string& name) const {
+  const auto v = maybe(name);
+  return v && (*v == "1" || *v == "true" || *v == "yes" || *v == "on");
+}
+
+std::optional<std::string> Options::maybe(const std::string& name) const {
+  const OptionSpec& s = spec(name);
+  if (auto it = values_.find(name); it != values_.end()) return it->second;
+  if (!s.default_value.empty()) return s.default_value;
+  return std::nullopt;
+}
+
+std::string Options::text(const std::string& name) const {
+  auto v = maybe(name);
+  if (!v) throw Error(command_ + ": missing required option --" + name);
+  return *v;
+}
+
+double Options::number(const std::string& name) const {
+  const std::string v = text(name);
+  errno = 0;
+  char* end = nullptr;
+  const double d = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || errno != 0 || !std::isfinite(d)) {
+    throw Error(command_ + ": --" + name + " expects a number, got '" + v + "'");
+  }
+  return d;
+}
+
+long long Options::integer(const std::string& name) const {
+  const std::string v = text(name);
+  errno = 0;
+  char* end = nullptr;
+  const long long n = std::strtoll(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || errno != 0) {
+    throw Error(command_ + ": --" + name + " expects an integer, got '" + v + "'");
+  }
+  return n;
+}
+
+std::size_t Options::count(const std::string& name) const {
+  const long long n = integer(name);
+  if (n < 0) throw Error(command_ + ": --" + name + " must not be negative");
+  return static_cast<std::size_t>(n);
+}
+
+std::vector<std::string> Options::list(const std::string& name) const {
+  std::vector<std::string> out;
+  std::stringstream ss(text(name));
+  for (std::string item; std::getline(ss, item, ',');) {
+    if (item.empty()) throw Error(command_ + ": --" + name + " has an empty item");
+    out.push_back(item);
+  }
+  return out;
+}
+
+std::vector<double> Options::numbers(const std::string& name) const {
+  std::vector<double> out;
+  for (const std::string& item : list(name)) {
+    char* end = nullptr;
+    const double d = std::strtod(item.c_str(), &end);
+    if (*end != '\0' || !std::isfinite(d)) {
+      throw Error(command_ + ": --" + name + " expects comma-separated numbers, got '" + item + "'");
+    }
+    out.push_back(d);
+  }
+  return out;
+}
+
+void Options::expect_positional(std::size_t n, const std::string& what) const {
+  if (positional_.size() != n) {
+    throw Error(command_ + ": expected " + what + " (see tsdf-mcl " + command_ + " --help)");
+  }
+}
+
+void Options::set_default_from_config(const std::string& name, const std::string& value) {
+  spec(name);
+  values_.emplace(name, value);
+}
+
+}  // namespace tsdf_mcl::cli
