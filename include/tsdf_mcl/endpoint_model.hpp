@@ -22,18 +22,22 @@ struct EndpointModel {
   float max_range = 60.0f;  // m: p_rand = z_rand / max_range
   Likelihood likelihood = Likelihood::kProduct;
   Interpolation interpolation = Interpolation::kNearest;
+  // The particle's log-weight is multiplied by this. Scan points are not independent (neighbouring beams see
+  // the same surface), so the plain joint likelihood of 1000 points is far too confident; an exponent < 1
+  // tempers it. 1 = the textbook product.
+  float weight_exponent = 1.0f;
 
   // Throws Error if a parameter is out of range (sigma <= 0, mixture weights negative or both zero, ...).
   void validate() const;
 
-  double log_p_rand() const { return std::log(static_cast<double>(z_rand) / max_range); }
+  double p_rand() const { return static_cast<double>(z_rand) / max_range; }
+  // z_hit / (sigma sqrt(2 pi)): the Gaussian's peak density times its mixture weight.
+  double hit_scale() const { return z_hit / (sigma_hit * 2.5066282746310002); }
   // p(point) given the map sample at its end. This is the CPU definition the shader mirrors.
   double point_likelihood(const TsdfMap::Sample& sample) const {
-    const double p_rand = static_cast<double>(z_rand) / max_range;
-    if (!sample.known) return p_rand;
-    const double s = sigma_hit;
+    if (!sample.known) return p_rand();
     const double d = sample.distance;
-    return z_hit * std::exp(-0.5 * d * d / (s * s)) / (s * 2.5066282746310002) + p_rand;
+    return hit_scale() * std::exp(-0.5 * d * d / (static_cast<double>(sigma_hit) * sigma_hit)) + p_rand();
   }
 };
 

@@ -48,8 +48,9 @@ struct WeightSummary {
   // Σ w q (w, x, y, z) with each q's sign flipped to the hemisphere of the reference quaternion; its
   // normalized direction is the weighted rotation mean.
   Eigen::Vector4d quaternion_sum = Eigen::Vector4d::Zero();
-  // Σ exp(log_weight / points): the per-point geometric-mean likelihood summed over particles, a fit measure
-  // independent of particle and point counts once divided by n (used by recovery).
+  // Σ over particles of the per-point mean likelihood (geometric mean for Likelihood::kProduct, arithmetic
+  // for kSum, undoing weight_exponent); divided by n it is a fit measure independent of particle and point
+  // counts (what recovery's w_slow / w_fast follow).
   double fit_sum = 0.0;
 };
 

@@ -1,0 +1,138 @@
+#include "cpu/cpu_evaluator.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "cpu/weight_reduction.hpp"
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+bool same_model(const EndpointModel& a, const EndpointModel& b) {
+  return a.sigma_hit == b.sigma_hit && a.z_hit == b.z_hit && a.z_rand == b.z_rand && a.max_range == b.max_range &&
+         a.likelihood == b.likelihood;
+}
+
+}  // namespace
+
+CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads)
+    : map_(map),
+      map_view_(map),
+      threads_(threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))) {
+  if (map.empty()) throw Error("the map is empty");
+}
+
+std::string CpuEvaluator::device_name() const { return "CPU (" + std::to_string(threads_) + " threads)"; }
+
+void CpuEvaluator::reserve(std::size_t particles, std::size_t points) {
+  if (particles > capacity_) {
+    const std::size_t capacity = std::max(particles, capacity_ + capacity_ / 2);
+    for (auto& set : sets_) {
+      std::vector<float> grown(8 * capacity, 0.0f);
+      for (std::size_t a = 0; a < 8 && capacity_ > 0; ++a) {
+        std::copy_n(set.begin() + static_cast<std::ptrdiff_t>(a * capacity_), capacity_,
+                    grown.begin() + static_cast<std::ptrdiff_t>(a * capacity));
+      }
+      set.swap(grown);
+    }
+    capacity_ = capacity;
+  }
+  points_.reserve(3 * points);
+}
+
+ParticleArrays CpuEvaluator::view(int set) {
+  float* base = sets_[set].data();
+  ParticleArrays p;
+  p.x = base;
+  p.y = base + capacity_;
+  p.z = base + 2 * capacity_;
+  p.qw = base + 3 * capacity_;
+  p.qx = base + 4 * capacity_;
+  p.qy = base + 5 * capacity_;
+  p.qz = base + 6 * capacity_;
+  p.log_weight = base + 7 * capacity_;
+  p.capacity = capacity_;
+  return p;
+}
+
+void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
+  const auto t0 = Clock::now();
+  points_.resize(3 * points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) throw Error("scan point " + std::to_string(i) + " is not finite");
+    points_[3 * i] = points[i].x();
+    points_[3 * i + 1] = points[i].y();
+    points_[3 * i + 2] = points[i].z();
+  }
+  point_count_ = points.size();
+  timings_.upload_ms = ms_since(t0);
+}
+
+void CpuEvaluator::rebuild_tables(const EndpointModel& model) {
+  if (table_valid_ && same_model(model, table_model_)) return;
+  const kernel::ModelConstants k(model);
+  table_.resize(65536);
+  for (int q = -32768; q <= 32767; ++q) {
+    float v;
+    if (q == TsdfMap::kUnknownValue) {
+      v = k.p_rand;
+    } else {
+      v = k.likelihood(static_cast<float>(q) * map_view_.quant_step);
+    }
+    table_[static_cast<std::size_t>(q + 32768)] = model.likelihood == Likelihood::kProduct ? std::log(v) : v;
+  }
+  table_model_ = model;
+  table_valid_ = true;
+}
+
+WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
+                                     const Eigen::Quaternionf& reference_rotation) {
+  model.validate();
+  if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
+  if (point_count_ == 0) throw Error("evaluate: no scan points set");
+  const auto t0 = Clock::now();
+  rebuild_tables(model);
+  const ParticleArrays p = particles();
+  const kernel::ModelConstants k(model);
+  const float* pts = points_.data();
+  const auto m = static_cast<std::ptrdiff_t>(point_count_);
+  const float* table = table_.data() + 32768;
+  const kernel::MapView& map = map_view_;
+  const bool product = model.likelihood == Likelihood::kProduct;
+  const bool trilinear = model.interpolation == Interpolation::kTrilinear;
+  const float exponent = model.weight_exponent;
+
+#pragma omp parallel for num_threads(threads_) schedule(static)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+    float r[9];
+    kernel::rotation_matrix(p.qw[i], p.qx[i], p.qy[i], p.qz[i], r);
+    const float t[3] = {p.x[i], p.y[i], p.z[i]};
+    float acc = 0.0f;
+    for (std::ptrdiff_t j = 0; j < m; ++j) {
+      float g[3];
+      kernel::to_grid(r, t, map.inv_voxel, pts[3 * j], pts[3 * j + 1], pts[3 * j + 2], g);
+      float v;
+      if (!trilinear) {
+        v = table[kernel::sample_nearest(map, g)];
+      } else {
+        float d;
+        const bool known = kernel::sample_trilinear(map, g, &d);
+        v = product ? (known ? std::log(k.likelihood(d)) : k.log_p_rand) : (known ? k.likelihood(d) : k.p_rand);
+      }
+      acc += v;
+    }
+    p.log_weight[i] = exponent * (product ? acc : std::log(acc));
+  }
+  const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
+  timings_.evaluate_ms = ms_since(t0);
+  return summary;
+}
+
+}  // namespace tsdf_mcl
