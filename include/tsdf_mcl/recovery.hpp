@@ -1,0 +1,32 @@
+#pragma once
+// Recovery from a lost track (augmented MCL, Thrun et al. "Probabilistic Robotics" 8.3.5): a short-term and a
+// long-term average of the measurement fit; while the short-term one is below the long-term one, random
+// particles are drawn uniformly over the map, in proportion to 1 - w_fast / w_slow.
+//
+// The fit fed in must mean the same thing whatever the particle and point counts: the mean over particles of
+// the per-point geometric-mean likelihood (WeightSummary::fit_sum / n). Normalized weights sum to 1 by
+// construction and carry no information about how well the scan matches the map.
+namespace tsdf_mcl {
+
+class RecoveryMonitor {
+ public:
+  // nav2 semantics: 0 < alpha_slow << alpha_fast; either one 0 disables recovery.
+  RecoveryMonitor(double alpha_slow, double alpha_fast);
+
+  // Feeds one fit value; returns the share of random particles for the next generation, in [0, 1].
+  double update(double fit);
+  // Forgets both averages (a new initialization); the next fit starts them again.
+  void reset() { w_slow_ = w_fast_ = 0.0; }
+
+  bool enabled() const { return alpha_slow_ > 0.0 && alpha_fast_ > 0.0; }
+  double w_slow() const { return w_slow_; }
+  double w_fast() const { return w_fast_; }
+
+ private:
+  double alpha_slow_;
+  double alpha_fast_;
+  double w_slow_ = 0.0;
+  double w_fast_ = 0.0;
+};
+
+}  // namespace tsdf_mcl

@@ -1,0 +1,181 @@
+#include "tsdf_mcl/particle_init.hpp"
+
+#include <algorithm>
+#include <bitset>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "cpu/endpoint_kernel.hpp"
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/motion_model.hpp"
+
+namespace tsdf_mcl {
+namespace {
+constexpr double kPi = 3.141592653589793;
+constexpr int B = TsdfMap::kBlockSize;
+}  // namespace
+
+void GlobalInitOptions::validate() const {
+  if (!(max_tilt > 0.0) || !std::isfinite(max_tilt)) throw Error("init_max_tilt must be positive");
+  if (!(min_clearance >= 0.0) || !std::isfinite(min_clearance)) throw Error("init_min_clearance must not be negative");
+  if (use_height_band && !(max_height > min_height && std::isfinite(min_height) && std::isfinite(max_height))) {
+    throw Error("init_max_height must be larger than init_min_height");
+  }
+}
+
+void LocalInitSpread::validate() const {
+  for (const auto& [name, v] : {std::pair{"init_sigma_xy", sigma_xy}, std::pair{"init_sigma_z", sigma_z},
+                                std::pair{"init_sigma_yaw", sigma_yaw}, std::pair{"init_sigma_roll_pitch", sigma_roll_pitch}}) {
+    if (!(v >= 0.0) || !std::isfinite(v)) throw Error(std::string(name) + " must be a non-negative number");
+  }
+}
+
+FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& options)
+    : map_(&map), options_(options) {
+  options_.validate();
+  if (map.empty()) throw Error("global initialization: the map is empty");
+  const kernel::MapView view(map);
+  const Eigen::Vector3i dims = map.dims_blocks();
+  const std::vector<std::uint32_t>& coarse = map.coarse_index();
+
+  // One mask per known block, filled in parallel by block rows (each row owns its blocks), compacted after.
+  std::vector<std::int64_t> slot(coarse.size(), -1);
+  std::size_t known = 0;
+  for (std::size_t c = 0; c < coarse.size(); ++c) {
+    if (coarse[c] != TsdfMap::kUnknownBlock) slot[c] = static_cast<std::int64_t>(known++);
+  }
+  std::vector<std::array<std::uint64_t, 8>> masks(known, std::array<std::uint64_t, 8>{});
+  const float step = map.quantization_step();
+  const float voxel = map.voxel_size();
+  const float clearance = static_cast<float>(std::min<double>(options_.min_clearance, map.truncation()));
+  const bool band = options_.use_height_band;
+  const auto min_h = static_cast<float>(options_.min_height);
+  const auto max_h = static_cast<float>(options_.max_height);
+  const int z0 = map.min_block().z() * B;
+
+#pragma omp parallel for schedule(dynamic)
+  for (int by = 0; by < dims.y(); ++by) {
+    for (int bx = 0; bx < dims.x(); ++bx) {
+      for (int l = 0; l < B * B; ++l) {
+        const int lx = l % B, ly = l / B;
+        const int vx = (map.min_block().x() + bx) * B + lx;
+        const int vy = (map.min_block().y() + by) * B + ly;
+        float floor_z = -std::numeric_limits<float>::infinity();  // surface height below, from the last voxel inside a surface
+        for (int bz = 0; bz < dims.z(); ++bz) {
+          const std::size_t cell = static_cast<std::size_t>(bx) +
+                                   static_cast<std::size_t>(dims.x()) * (static_cast<std::size_t>(by) + static_cast<std::size_t>(dims.y()) * static_cast<std::size_t>(bz));
+          if (coarse[cell] == TsdfMap::kUnknownBlock) continue;
+          std::array<std::uint64_t, 8>& mask = masks[static_cast<std::size_t>(slot[cell])];
+          for (int lz = 0; lz < B; ++lz) {
+            const int vz = z0 + bz * B + lz;
+            const std::int32_t q = view.fetch(vx, vy, vz);
+            if (q == TsdfMap::kUnknownValue) continue;
+            const float d = static_cast<float>(q) * step;
+            const float z = static_cast<float>(vz) * voxel;
+            if (d <= 0.0f) {
+              floor_z = z - d;  // the surface lies |d| above this voxel's centre (normal pointing up)
+              continue;
+            }
+            if (d < clearance) continue;
+            if (band && !(z - floor_z >= min_h && z - floor_z <= max_h)) continue;
+            const int local = lx + B * (ly + B * lz);
+            mask[static_cast<std::size_t>(local >> 6)] |= 1ull << (local & 63);
+          }
+        }
+      }
+    }
+  }
+
+  std::uint64_t total = 0;
+  for (std::size_t c = 0; c < coarse.size(); ++c) {
+    if (slot[c] < 0) continue;
+    const auto& mask = masks[static_cast<std::size_t>(slot[c])];
+    std::uint64_t count = 0;
+    for (std::uint64_t word : mask) count += std::bitset<64>(word).count();
+    if (count == 0) continue;
+    const auto cc = static_cast<int>(c);
+    block_.emplace_back(map.min_block().x() + cc % dims.x(), map.min_block().y() + (cc / dims.x()) % dims.y(),
+                        map.min_block().z() + cc / (dims.x() * dims.y()));
+    mask_.push_back(mask);
+    total += count;
+    cumulative_.push_back(total);
+  }
+  if (total == 0) {
+    throw Error("global initialization: the map has no free space that satisfies the constraints (clearance " +
+                std::to_string(options_.min_clearance) + " m" +
+                (band ? ", height band " + std::to_string(min_h) + ".." + std::to_string(max_h) + " m" : std::string()) +
+                ")");
+  }
+}
+
+Eigen::Vector3f FreeSpaceSampler::sample_position(Rng& rng) const {
+  const std::uint64_t k = rng.below(cumulative_.back());
+  const auto b = static_cast<std::size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), k) - cumulative_.begin());
+  std::uint64_t rank = k - (b == 0 ? 0 : cumulative_[b - 1]);
+  int local = 0;
+  for (int word = 0; word < 8; ++word) {
+    std::uint64_t bits = mask_[b][static_cast<std::size_t>(word)];
+    const auto count = static_cast<std::uint64_t>(std::bitset<64>(bits).count());
+    if (rank >= count) {
+      rank -= count;
+      continue;
+    }
+    for (; rank > 0; --rank) bits &= bits - 1;  // drop the lowest set bits until the wanted one is lowest
+    local = word * 64 + __builtin_ctzll(bits);
+    break;
+  }
+  const Eigen::Vector3i voxel = block_[b] * B + Eigen::Vector3i(local % B, (local / B) % B, local / (B * B));
+  const float h = 0.5f * map_->voxel_size();
+  const Eigen::Vector3f jitter(static_cast<float>(rng.uniform(-h, h)), static_cast<float>(rng.uniform(-h, h)),
+                               static_cast<float>(rng.uniform(-h, h)));
+  return map_->center_of(voxel) + jitter;
+}
+
+Eigen::Quaternionf FreeSpaceSampler::sample_rotation(Rng& rng) const {
+  if (options_.max_tilt >= kPi) {
+    // Shoemake: uniform over the unit quaternions' 3-sphere.
+    const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
+    const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
+    return Eigen::Quaternionf(static_cast<float>(b * std::cos(2 * kPi * u3)), static_cast<float>(a * std::sin(2 * kPi * u2)),
+                              static_cast<float>(a * std::cos(2 * kPi * u2)), static_cast<float>(b * std::sin(2 * kPi * u3)));
+  }
+  // The sensor's z axis uniform over the spherical cap (cos of the tilt uniform), then a uniform turn about
+  // it: the uniform distribution over SO(3) restricted to the cap.
+  const double cos_tilt = 1.0 - rng.uniform() * (1.0 - std::cos(options_.max_tilt));
+  const double tilt = std::acos(std::clamp(cos_tilt, -1.0, 1.0));
+  const double azimuth = rng.uniform(0.0, 2 * kPi);
+  const double yaw = rng.uniform(-kPi, kPi);
+  const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(azimuth), std::sin(azimuth), 0.0))) *
+                               Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  return q.cast<float>().normalized();
+}
+
+void FreeSpaceSampler::sample(const ParticleArrays& p, std::size_t begin, std::size_t end, std::uint64_t seed,
+                              std::uint64_t step) const {
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = static_cast<std::ptrdiff_t>(begin); k < static_cast<std::ptrdiff_t>(end); ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    Rng rng(seed, 0x61080Bull, step, i);
+    const Eigen::Vector3f pos = sample_position(rng);
+    p.set(i, pos, sample_rotation(rng));
+  }
+}
+
+void sample_local(const ParticleArrays& p, std::size_t n, const Pose& mean, const LocalInitSpread& s,
+                  std::uint64_t seed, std::uint64_t step) {
+  s.validate();
+  const Eigen::Vector3f t = mean.translation().cast<float>();
+  const Eigen::Quaternionf q(Eigen::Quaterniond(mean.linear()).cast<float>());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    Rng rng(seed, 0x10CA1ull, step, i);
+    const auto g = [&rng](double sigma) { return static_cast<float>(sigma * rng.normal()); };
+    const Eigen::Vector3f pos = t + Eigen::Vector3f(g(s.sigma_xy), g(s.sigma_xy), g(s.sigma_z));
+    const Eigen::Vector3f w(g(s.sigma_roll_pitch), g(s.sigma_roll_pitch), g(s.sigma_yaw));
+    p.set(i, pos, (q * quaternion_exp(w)).normalized());
+  }
+}
+
+}  // namespace tsdf_mcl
