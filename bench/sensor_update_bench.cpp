@@ -1,0 +1,130 @@
+#include "sensor_update_bench.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "reference_cpu_baseline.hpp"
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/sensor_evaluator.hpp"
+
+namespace tsdf_mcl::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+void place_particles(const ParticleArrays& p, std::size_t n, const TsdfMap& map, const Pose& true_pose,
+                     const std::string& spread, std::mt19937& rng) {
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const Eigen::Vector3f t = true_pose.translation().cast<float>();
+  const Eigen::Quaternionf q(true_pose.linear().cast<float>());
+  const Eigen::Vector3f lo = map.world_min(), hi = map.world_max();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (spread == "local") {
+      // 0.5 m and 10 degrees: the spread of a filter that is tracking but not yet converged.
+      const Eigen::Vector3f dp(0.5f * g(rng), 0.5f * g(rng), 0.1f * g(rng));
+      const Eigen::Vector3f axis_angle = Eigen::Vector3f(g(rng), g(rng), g(rng)) * (10.0f * 3.14159265f / 180.0f / 1.7320508f);
+      const Eigen::Quaternionf dq(Eigen::AngleAxisf(axis_angle.norm(), axis_angle.normalized()));
+      p.set(i, t + dp, (q * dq).normalized());
+    } else {
+      const Eigen::Vector3f pos = lo + (hi - lo).cwiseProduct(Eigen::Vector3f(u(rng), u(rng), u(rng)));
+      p.set(i, pos, Eigen::Quaternionf::UnitRandom());
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> spread_points(const PointCloud& scan, std::size_t count) {
+  std::vector<Eigen::Vector3f> finite;
+  finite.reserve(scan.size());
+  for (const auto& p : scan.points) {
+    if (p.allFinite() && p.norm() > 0.1f) finite.push_back(p);
+  }
+  if (finite.empty()) throw Error("the scan has no finite points");
+  if (finite.size() <= count) return finite;
+  std::vector<Eigen::Vector3f> out(count);
+  for (std::size_t i = 0; i < count; ++i) out[i] = finite[i * finite.size() / count];
+  return out;
+}
+
+void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const Pose& true_pose,
+                             const BenchConfig& config, std::FILE* out) {
+  if (config.spread != "local" && config.spread != "global") throw Error("--spread must be local or global");
+  const std::vector<Eigen::Vector3f> points = spread_points(scan, config.points);
+  const std::size_t max_particles = *std::max_element(config.particle_counts.begin(), config.particle_counts.end());
+  for (const std::string& backend : config.backends) {
+    std::unique_ptr<SensorEvaluator> evaluator;
+    std::vector<float> reference_storage;
+    ParticleArrays reference_particles;
+    std::string device;
+    if (backend == "reference") {
+      reference_storage.assign(8 * max_particles, 0.0f);
+      float* b = reference_storage.data();
+      const std::size_t c = max_particles;
+      reference_particles = {b, b + c, b + 2 * c, b + 3 * c, b + 4 * c, b + 5 * c, b + 6 * c, b + 7 * c, c};
+      device = "CPU";
+    } else {
+      EvaluatorOptions options;
+      options.backend = parse_backend(backend);
+      evaluator = make_evaluator(map, options);
+      evaluator->reserve(max_particles, points.size());
+      evaluator->set_points(points);
+      device = evaluator->device_name();
+    }
+    for (std::size_t n : config.particle_counts) {
+      std::mt19937 rng(config.seed);
+      const ParticleArrays particles = evaluator ? evaluator->particles() : reference_particles;
+      place_particles(particles, n, map, true_pose, config.spread, rng);
+      std::vector<double> host_ms;
+      std::vector<double> gpu_ms;
+      for (std::size_t r = 0; r < config.warmup + config.repetitions; ++r) {
+        const auto t0 = Clock::now();
+        if (evaluator) {
+          evaluator->evaluate(n, config.model, particles.rotation(0));
+        } else {
+          reference_cpu_weights(map, config.model, particles, n, points);
+        }
+        const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        if (r < config.warmup) continue;
+        host_ms.push_back(ms);
+        if (evaluator && std::isfinite(evaluator->last_timings().weight_gpu_ms)) {
+          gpu_ms.push_back(evaluator->last_timings().weight_gpu_ms + evaluator->last_timings().reduce_gpu_ms);
+        }
+      }
+      const double med = median(host_ms);
+      nlohmann::json line = {
+          {"backend", backend},
+          {"device", device},
+          {"particles", n},
+          {"points", points.size()},
+          {"spread", config.spread},
+          {"median_ms", med},
+          {"min_ms", *std::min_element(host_ms.begin(), host_ms.end())},
+          {"gpu_ms", gpu_ms.empty() ? nlohmann::json(nullptr) : nlohmann::json(median(gpu_ms))},
+          {"evals_per_s", static_cast<double>(n) * static_cast<double>(points.size()) / (med * 1e-3)},
+          {"repetitions", config.repetitions},
+          {"likelihood", config.model.likelihood == Likelihood::kProduct ? "product" : "sum"},
+          {"interpolation", config.model.interpolation == Interpolation::kNearest ? "nearest" : "trilinear"},
+          {"map", config.map_name},
+          {"scan", config.scan_name},
+      };
+      std::fprintf(out, "%s\n", line.dump().c_str());
+      std::fflush(out);
+      std::fprintf(stderr, "bench: %s %zu particles x %zu points: %.1f ms\n", backend.c_str(), n, points.size(), med);
+    }
+  }
+}
+
+}  // namespace tsdf_mcl::bench

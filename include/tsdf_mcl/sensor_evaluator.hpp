@@ -93,6 +93,9 @@ struct EvaluatorOptions {
   std::function<void(const std::string&)> on_validation_message;
   int device_index = -1;  // -1: prefer a discrete/integrated GPU, then any device (lavapipe)
   int cpu_threads = 0;    // 0: all hardware threads
+  // Vulkan: reduce with subgroup arithmetic where the device has it; false forces the shared-memory tree
+  // (both variants are tested on every device).
+  bool subgroup_reduction = true;
 };
 
 // Builds the evaluator. With kAuto, tries Vulkan and falls back to the CPU; `note` (if given) receives one

@@ -12,6 +12,7 @@
 // kFreeBlock marks a whole block as observed free space beyond the truncation band (distance = +truncation)
 // without storing 512 copies of it: free space far from surfaces is most of an indoor map.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -66,6 +67,9 @@ class TsdfMap {
   // +truncation if it was a free block). Throws if the voxel is outside the box.
   void set_distance(const Eigen::Vector3i& voxel, float distance);
   void set_unknown(const Eigen::Vector3i& voxel);
+  // Writes a whole block at once (builders fill blocks in parallel, then store them): quantized values in local
+  // index order, kUnknownValue allowed. Allocates the block; throws if it is outside the box.
+  void set_block(const Eigen::Vector3i& block, const std::array<std::int16_t, kVoxelsPerBlock>& values);
   // Marks an unallocated block as free space (+truncation everywhere). Allocated blocks are left alone.
   void mark_block_free(const Eigen::Vector3i& block);
   std::uint32_t block_entry(const Eigen::Vector3i& block) const;  // pool index or a sentinel

@@ -1,11 +1,504 @@
 #include "gpu/vulkan_evaluator.hpp"
 
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <memory>
+
+#include "cpu/endpoint_kernel.hpp"
+#include "cpu/weight_reduction.hpp"
+#include "gpu/buffer.hpp"
+#include "gpu/compute_pipeline.hpp"
+#include "gpu/push_constants.hpp"
+#include "gpu/vulkan_context.hpp"
 #include "tsdf_mcl/error.hpp"
 
 namespace tsdf_mcl {
+namespace {
 
-std::unique_ptr<SensorEvaluator> make_vulkan_evaluator(const TsdfMap&, const EvaluatorOptions&) {
-  throw Error("the Vulkan backend is not built yet");
+const std::uint32_t kEndpointSpirv[] = {
+#include "endpoint_weight.inc"
+};
+const std::uint32_t kReduceSubgroupSpirv[] = {
+#include "reduce_subgroup.inc"
+};
+const std::uint32_t kReduceSharedSpirv[] = {
+#include "reduce_shared.inc"
+};
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+constexpr std::uint32_t kEndpointWorkgroup = 64;
+constexpr std::uint32_t kReduceWorkgroup = 256;
+constexpr std::uint32_t kReduceItems = 4;
+constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
+constexpr std::uint32_t kEndpointBindings = 7;  // particles, points, coarse, pool0..3
+constexpr std::uint32_t kMaxPoolChunks = 4;
+constexpr std::uint32_t kReduceBindings = 3;    // particles, records in, records out
+constexpr std::uint32_t kQueries = 3;           // before weighting, after weighting, after reduction
+constexpr std::size_t kParticleArrays = 8;      // x y z qw qx qy qz log_weight
+
+std::uint32_t groups_for(std::size_t n, std::uint32_t per_group) {
+  return static_cast<std::uint32_t>((n + per_group - 1) / per_group);
+}
+
+class VulkanEvaluator final : public SensorEvaluator {
+ public:
+  VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& options);
+  ~VulkanEvaluator() override;
+
+  std::string backend() const override { return "vulkan"; }
+  std::string device_name() const override { return ctx_->caps().name; }
+  void reserve(std::size_t particles, std::size_t points) override;
+  ParticleArrays particles() override { return view(active_); }
+  ParticleArrays spare_particles() override { return view(1 - active_); }
+  void swap_particles() override { active_ = 1 - active_; }
+  void set_points(const std::vector<Eigen::Vector3f>& points) override;
+  WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
+                         const Eigen::Quaternionf& reference_rotation) override;
+  const UpdateTimings& last_timings() const override { return timings_; }
+
+ private:
+  ParticleArrays view(int set);
+  const gpu::ComputePipeline& endpoint_pipeline(const EndpointModel& model);
+  void grow_particles(std::size_t capacity);
+  void grow_points(std::size_t capacity);
+  void grow_records(std::size_t particle_capacity);
+  void write_descriptor_sets();
+  void check_validation() const;
+  void release();
+  void barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+
+  std::unique_ptr<gpu::VulkanContext> ctx_;
+  const TsdfMap& map_;
+  kernel::MapView map_view_;
+  bool notify_validation_;
+  VkCommandPool command_pool_ = VK_NULL_HANDLE;
+  VkCommandBuffer cmd_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  VkQueryPool queries_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+
+  gpu::Buffer coarse_;
+  std::vector<gpu::Buffer> pool_chunks_;
+  std::uint32_t chunk_shift_ = 0;
+  gpu::Buffer particle_sets_[2];
+  std::size_t capacity_ = 0;
+  int active_ = 0;
+  gpu::Buffer points_;          // read by the shader
+  gpu::Buffer points_staging_;  // host-written copy where points_ is not host-visible (discrete GPUs)
+  std::size_t point_capacity_ = 0;
+  std::size_t point_count_ = 0;
+  gpu::Buffer records_[2];
+  std::size_t record_capacity_ = 0;
+
+  std::map<std::uint32_t, std::unique_ptr<gpu::ComputePipeline>> endpoint_pipelines_;
+  std::unique_ptr<gpu::ComputePipeline> reduce_pipeline_;
+  // Endpoint: one per particle set. Reduction: [set][0] particles -> records 0, [set][1] 0 -> 1, [set][2] 1 -> 0.
+  VkDescriptorSet endpoint_sets_[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  VkDescriptorSet reduce_sets_[2][3] = {};
+  UpdateTimings timings_;
+};
+
+VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& options)
+    : ctx_(std::make_unique<gpu::VulkanContext>(options)),
+      map_(map),
+      map_view_(map),
+      notify_validation_(!options.on_validation_message) {
+  if (map.empty()) throw Error("the map is empty");
+  const VkDevice dev = ctx_->device();
+  const gpu::DeviceCaps& caps = ctx_->caps();
+  try {
+    VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = ctx_->queue_family();
+    gpu::check(vkCreateCommandPool(dev, &pool_info, nullptr, &command_pool_), "vkCreateCommandPool");
+    VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    alloc.commandPool = command_pool_;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    gpu::check(vkAllocateCommandBuffers(dev, &alloc, &cmd_), "vkAllocateCommandBuffers");
+    VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    gpu::check(vkCreateFence(dev, &fence_info, nullptr, &fence_), "vkCreateFence");
+    if (caps.timestamps) {
+      VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+      q.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      q.queryCount = kQueries;
+      gpu::check(vkCreateQueryPool(dev, &q, nullptr, &queries_), "vkCreateQueryPool");
+    }
+
+    // The map, uploaded once: the coarse index in one buffer, the block pool split into chunks of a power-of-two
+    // number of blocks so that no binding exceeds maxStorageBufferRange (128 MiB on lavapipe).
+    const std::uint64_t range = std::min<std::uint64_t>(caps.max_storage_buffer_range, 1ull << 30);
+    const std::uint64_t coarse_bytes = map.coarse_index().size() * sizeof(std::uint32_t);
+    if (coarse_bytes > range) {
+      throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) + " MiB) exceeds the device's storage buffer range");
+    }
+    const std::uint64_t block_bytes = TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
+    chunk_shift_ = 0;
+    while ((block_bytes << (chunk_shift_ + 1)) <= range && chunk_shift_ < 24) ++chunk_shift_;
+    const std::size_t blocks_per_chunk = std::size_t{1} << chunk_shift_;
+    const std::size_t blocks = map.block_count();
+    const std::size_t chunks = std::max<std::size_t>(1, (blocks + blocks_per_chunk - 1) / blocks_per_chunk);
+    if (chunks > kMaxPoolChunks) {
+      throw Error("map block pool (" + std::to_string(blocks * block_bytes >> 20) + " MiB) exceeds " +
+                  std::to_string(kMaxPoolChunks) + " storage buffers of " + std::to_string((blocks_per_chunk * block_bytes) >> 20) +
+                  " MiB on this device");
+    }
+    coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal);
+    gpu::upload(*ctx_, command_pool_, coarse_, map.coarse_index().data(), coarse_bytes);
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::size_t first = c * blocks_per_chunk;
+      const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
+      const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
+      pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal);
+      gpu::upload(*ctx_, command_pool_, pool_chunks_.back(),
+                  map.block_pool().data() + first * TsdfMap::kWordsPerBlock, count * block_bytes);
+    }
+
+    reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
+        *ctx_,
+        caps.subgroup_arithmetic && options.subgroup_reduction ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
+                                 : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
+        kReduceBindings, sizeof(gpu::ReducePushConstants), std::vector<std::uint32_t>{kReduceWorkgroup, kReduceItems});
+    // Created here rather than on first use so that the first update is not slowed by a pipeline compile.
+    EndpointModel default_model;
+    endpoint_pipeline(default_model);
+
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * kEndpointBindings + 6 * kReduceBindings};
+    VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    dp.maxSets = 8;
+    dp.poolSizeCount = 1;
+    dp.pPoolSizes = &size;
+    gpu::check(vkCreateDescriptorPool(dev, &dp, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
+    const VkDescriptorSetLayout endpoint_layout = endpoint_pipelines_.begin()->second->set_layout();
+    const VkDescriptorSetLayout layouts[8] = {endpoint_layout,
+                                              endpoint_layout,
+                                              reduce_pipeline_->set_layout(),
+                                              reduce_pipeline_->set_layout(),
+                                              reduce_pipeline_->set_layout(),
+                                              reduce_pipeline_->set_layout(),
+                                              reduce_pipeline_->set_layout(),
+                                              reduce_pipeline_->set_layout()};
+    VkDescriptorSetAllocateInfo ds{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ds.descriptorPool = descriptor_pool_;
+    ds.descriptorSetCount = 8;
+    ds.pSetLayouts = layouts;
+    VkDescriptorSet sets[8];
+    gpu::check(vkAllocateDescriptorSets(dev, &ds, sets), "vkAllocateDescriptorSets");
+    endpoint_sets_[0] = sets[0];
+    endpoint_sets_[1] = sets[1];
+    for (int s = 0; s < 2; ++s)
+      for (int k = 0; k < 3; ++k) reduce_sets_[s][k] = sets[2 + 3 * s + k];
+
+    reserve(1024, 1024);
+  } catch (...) {
+    release();
+    throw;
+  }
+  check_validation();
+}
+
+VulkanEvaluator::~VulkanEvaluator() { release(); }
+
+// Destroys everything made on the device (also on a failed construction), before ctx_ destroys the device.
+void VulkanEvaluator::release() {
+  const VkDevice dev = ctx_->device();
+  vkDeviceWaitIdle(dev);
+  endpoint_pipelines_.clear();
+  reduce_pipeline_.reset();
+  if (descriptor_pool_) vkDestroyDescriptorPool(dev, descriptor_pool_, nullptr);
+  if (queries_) vkDestroyQueryPool(dev, queries_, nullptr);
+  if (fence_) vkDestroyFence(dev, fence_, nullptr);
+  if (command_pool_) vkDestroyCommandPool(dev, command_pool_, nullptr);
+  descriptor_pool_ = VK_NULL_HANDLE;
+  queries_ = VK_NULL_HANDLE;
+  fence_ = VK_NULL_HANDLE;
+  command_pool_ = VK_NULL_HANDLE;
+  coarse_ = {};
+  pool_chunks_.clear();
+  for (auto& b : particle_sets_) b = {};
+  for (auto& b : records_) b = {};
+  points_ = {};
+  points_staging_ = {};
+}
+
+
+void VulkanEvaluator::check_validation() const {
+  if (notify_validation_ && ctx_->validation_errors() > 0) {
+    throw Error("Vulkan validation reported: " + ctx_->last_validation_message());
+  }
+}
+
+const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointModel& model) {
+  const auto interpolation = static_cast<std::uint32_t>(model.interpolation);
+  const auto likelihood = static_cast<std::uint32_t>(model.likelihood);
+  const std::uint32_t key = interpolation * 2 + likelihood;
+  auto& slot = endpoint_pipelines_[key];
+  if (!slot) {
+    slot = std::make_unique<gpu::ComputePipeline>(
+        *ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)}, kEndpointBindings,
+        sizeof(gpu::EndpointPushConstants),
+        std::vector<std::uint32_t>{kEndpointWorkgroup, interpolation, likelihood, chunk_shift_});
+  }
+  return *slot;
+}
+
+ParticleArrays VulkanEvaluator::view(int set) {
+  auto* base = static_cast<float*>(particle_sets_[set].mapped());
+  ParticleArrays p;
+  p.x = base;
+  p.y = base + capacity_;
+  p.z = base + 2 * capacity_;
+  p.qw = base + 3 * capacity_;
+  p.qx = base + 4 * capacity_;
+  p.qy = base + 5 * capacity_;
+  p.qz = base + 6 * capacity_;
+  p.log_weight = base + 7 * capacity_;
+  p.capacity = capacity_;
+  return p;
+}
+
+void VulkanEvaluator::reserve(std::size_t particles, std::size_t points) {
+  bool changed = false;
+  if (particles > capacity_) {
+    if (groups_for(particles, kEndpointWorkgroup) > ctx_->caps().max_workgroup_count_x) {
+      throw Error("too many particles for one dispatch on " + ctx_->caps().name);
+    }
+    grow_particles(std::max(particles, capacity_ + capacity_ / 2));
+    grow_records(capacity_);
+    changed = true;
+  }
+  if (points > point_capacity_) {
+    grow_points(std::max(points, point_capacity_ + point_capacity_ / 2));
+    changed = true;
+  }
+  if (changed) write_descriptor_sets();
+}
+
+void VulkanEvaluator::grow_particles(std::size_t capacity) {
+  const VkDeviceSize bytes = kParticleArrays * capacity * sizeof(float);
+  for (auto& set : particle_sets_) {
+    gpu::Buffer grown(*ctx_, bytes, gpu::Buffer::Use::kHostShared);
+    if (!grown.mapped()) throw Error("Vulkan: particle buffer is not host-visible");
+    std::memset(grown.mapped(), 0, bytes);
+    if (set) {  // keep the particles: the filter may grow the set mid-run (KLD sampling)
+      for (std::size_t a = 0; a < kParticleArrays; ++a) {
+        std::memcpy(static_cast<float*>(grown.mapped()) + a * capacity,
+                    static_cast<const float*>(set.mapped()) + a * capacity_, capacity_ * sizeof(float));
+      }
+    }
+    grown.flush();
+    set = std::move(grown);
+  }
+  capacity_ = capacity;
+}
+
+void VulkanEvaluator::grow_points(std::size_t capacity) {
+  const VkDeviceSize bytes = capacity * 4 * sizeof(float);
+  if (ctx_->caps().unified_memory) {
+    points_ = gpu::Buffer(*ctx_, bytes, gpu::Buffer::Use::kHostShared);
+    points_staging_ = {};
+  } else {
+    points_ = gpu::Buffer(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal);
+    points_staging_ = gpu::Buffer(*ctx_, bytes, gpu::Buffer::Use::kHostShared);
+  }
+  point_capacity_ = capacity;
+  point_count_ = 0;
+}
+
+void VulkanEvaluator::grow_records(std::size_t particle_capacity) {
+  const std::size_t records = std::max<std::size_t>(1, groups_for(particle_capacity, kReducePerGroup));
+  if (records <= record_capacity_) return;
+  for (auto& r : records_) {
+    r = gpu::Buffer(*ctx_, records * gpu::kReduceRecordFloats * sizeof(float), gpu::Buffer::Use::kHostShared);
+  }
+  record_capacity_ = records;
+}
+
+void VulkanEvaluator::write_descriptor_sets() {
+  std::vector<VkDescriptorBufferInfo> infos;
+  std::vector<VkWriteDescriptorSet> writes;
+  infos.reserve(2 * kEndpointBindings + 6 * kReduceBindings);
+  auto bind = [&](VkDescriptorSet set, std::uint32_t binding, const gpu::Buffer& buffer) {
+    infos.push_back({buffer.handle(), 0, VK_WHOLE_SIZE});
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = binding;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    w.pBufferInfo = &infos.back();
+    writes.push_back(w);
+  };
+  for (int s = 0; s < 2; ++s) {
+    bind(endpoint_sets_[s], 0, particle_sets_[s]);
+    bind(endpoint_sets_[s], 1, points_);
+    bind(endpoint_sets_[s], 2, coarse_);
+    // Unused pool bindings repeat the first chunk: they must be valid but are never read.
+    for (std::uint32_t c = 0; c < kMaxPoolChunks; ++c) {
+      bind(endpoint_sets_[s], 3 + c, pool_chunks_[c < pool_chunks_.size() ? c : 0]);
+    }
+    bind(reduce_sets_[s][0], 0, particle_sets_[s]);
+    bind(reduce_sets_[s][0], 1, records_[1]);
+    bind(reduce_sets_[s][0], 2, records_[0]);
+    bind(reduce_sets_[s][1], 0, particle_sets_[s]);
+    bind(reduce_sets_[s][1], 1, records_[0]);
+    bind(reduce_sets_[s][1], 2, records_[1]);
+    bind(reduce_sets_[s][2], 0, particle_sets_[s]);
+    bind(reduce_sets_[s][2], 1, records_[1]);
+    bind(reduce_sets_[s][2], 2, records_[0]);
+  }
+  vkUpdateDescriptorSets(ctx_->device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+void VulkanEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
+  const auto t0 = Clock::now();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) throw Error("scan point " + std::to_string(i) + " is not finite");
+  }
+  reserve(capacity_, points.size());
+  const gpu::Buffer& dst = points_staging_ ? points_staging_ : points_;
+  auto* out = static_cast<float*>(dst.mapped());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    out[4 * i] = points[i].x();
+    out[4 * i + 1] = points[i].y();
+    out[4 * i + 2] = points[i].z();
+    out[4 * i + 3] = 1.0f;
+  }
+  dst.flush();
+  point_count_ = points.size();
+  timings_.upload_ms = ms_since(t0);
+}
+
+void VulkanEvaluator::barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage,
+                              VkPipelineStageFlags dst_stage) {
+  VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+  b.srcAccessMask = src;
+  b.dstAccessMask = dst;
+  vkCmdPipelineBarrier(cmd_, src_stage, dst_stage, 0, 1, &b, 0, nullptr, 0, nullptr);
+}
+
+WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& model,
+                                        const Eigen::Quaternionf& reference_rotation) {
+  model.validate();
+  if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
+  if (point_count_ == 0) throw Error("evaluate: no scan points set");
+  const auto t0 = Clock::now();
+  const gpu::ComputePipeline& endpoint = endpoint_pipeline(model);
+  if (n == 0) return {};
+
+  gpu::EndpointPushConstants ep{};
+  ep.particle_count = static_cast<std::uint32_t>(n);
+  ep.point_count = static_cast<std::uint32_t>(point_count_);
+  ep.capacity = static_cast<std::uint32_t>(capacity_);
+  ep.inv_voxel = map_view_.inv_voxel;
+  ep.quant_step = map_view_.quant_step;
+  for (int a = 0; a < 3; ++a) {
+    ep.min_voxel[a] = map_view_.min_voxel[a];
+    ep.dims_voxels[a] = map_view_.dims_voxels[a];
+  }
+  ep.dims_blocks_x = map_view_.dims_blocks[0];
+  ep.dims_blocks_y = map_view_.dims_blocks[1];
+  const kernel::ModelConstants k(model);
+  ep.hit_scale = k.hit_scale;
+  ep.neg_inv_2s2 = k.neg_inv_2s2;
+  ep.p_rand = k.p_rand;
+  ep.log_p_rand = k.log_p_rand;
+  ep.weight_exponent = model.weight_exponent;
+
+  gpu::check(vkResetCommandBuffer(cmd_, 0), "vkResetCommandBuffer");
+  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  gpu::check(vkBeginCommandBuffer(cmd_, &begin), "vkBeginCommandBuffer");
+  if (queries_) vkCmdResetQueryPool(cmd_, queries_, 0, kQueries);
+  if (points_staging_) {
+    const VkBufferCopy region{0, 0, point_count_ * 4 * sizeof(float)};
+    vkCmdCopyBuffer(cmd_, points_staging_.handle(), points_.handle(), 1, &region);
+    barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  }
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 0);
+  vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.pipeline());
+  vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0, nullptr);
+  vkCmdPushConstants(cmd_, endpoint.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ep), &ep);
+  vkCmdDispatch(cmd_, groups_for(n, kEndpointWorkgroup), 1, 1);
+  barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 1);
+
+  const FitConstants fit = fit_constants(model, point_count_);
+  gpu::ReducePushConstants rp{};
+  rp.capacity = static_cast<std::uint32_t>(capacity_);
+  rp.fit_scale = fit.scale;
+  rp.fit_offset = fit.offset;
+  rp.reference[0] = reference_rotation.w();
+  rp.reference[1] = reference_rotation.x();
+  rp.reference[2] = reference_rotation.y();
+  rp.reference[3] = reference_rotation.z();
+  vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, reduce_pipeline_->pipeline());
+  std::size_t count = n;
+  int out = 0;  // records_[out] receives this level's records
+  for (std::uint32_t level = 0;; ++level) {
+    const std::uint32_t groups = groups_for(count, kReducePerGroup);
+    const VkDescriptorSet set = reduce_sets_[active_][level == 0 ? 0 : (out == 1 ? 1 : 2)];
+    rp.count = static_cast<std::uint32_t>(count);
+    rp.level = level;
+    vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, reduce_pipeline_->layout(), 0, 1, &set, 0, nullptr);
+    vkCmdPushConstants(cmd_, reduce_pipeline_->layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(rp), &rp);
+    vkCmdDispatch(cmd_, groups, 1, 1);
+    count = groups;
+    if (count == 1) break;
+    barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+    out = 1 - out;
+  }
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 2);
+  // Results and log-weights are read by the host after the fence.
+  barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+          VK_PIPELINE_STAGE_HOST_BIT);
+  gpu::check(vkEndCommandBuffer(cmd_), "vkEndCommandBuffer");
+
+  particle_sets_[active_].flush();
+  VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  submit.commandBufferCount = 1;
+  submit.pCommandBuffers = &cmd_;
+  gpu::check(vkResetFences(ctx_->device(), 1, &fence_), "vkResetFences");
+  gpu::check(vkQueueSubmit(ctx_->queue(), 1, &submit, fence_), "vkQueueSubmit");
+  gpu::check(vkWaitForFences(ctx_->device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  particle_sets_[active_].invalidate();
+  records_[out].invalidate();
+
+  const float* r = static_cast<const float*>(records_[out].mapped());
+  WeightPartial total;
+  total.max_log_weight = r[0];
+  total.weight_sum = r[1];
+  for (int a = 0; a < 3; ++a) total.position[a] = r[2 + a];
+  for (int a = 0; a < 4; ++a) total.quaternion[a] = r[5 + a];
+  total.fit_sum = r[9];
+  timings_.evaluate_ms = ms_since(t0);
+
+  if (queries_) {
+    std::uint64_t stamps[kQueries];
+    gpu::check(vkGetQueryPoolResults(ctx_->device(), queries_, 0, kQueries, sizeof(stamps), stamps, sizeof(std::uint64_t),
+                                     VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+               "vkGetQueryPoolResults");
+    const std::uint64_t mask = ctx_->caps().timestamp_mask;
+    const double ns = ctx_->caps().timestamp_period_ns;
+    timings_.weight_gpu_ms = static_cast<double>((stamps[1] - stamps[0]) & mask) * ns * 1e-6;
+    timings_.reduce_gpu_ms = static_cast<double>((stamps[2] - stamps[1]) & mask) * ns * 1e-6;
+  }
+  check_validation();
+  return total.summary();
+}
+
+}  // namespace
+
+std::unique_ptr<SensorEvaluator> make_vulkan_evaluator(const TsdfMap& map, const EvaluatorOptions& options) {
+  return std::make_unique<VulkanEvaluator>(map, options);
 }
 
 }  // namespace tsdf_mcl

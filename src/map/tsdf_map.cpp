@@ -150,6 +150,16 @@ void TsdfMap::set_unknown(const Eigen::Vector3i& voxel) {
   store(pool_, allocate_block(cell), local_index(voxel), kUnknownValue);
 }
 
+void TsdfMap::set_block(const Eigen::Vector3i& block, const std::array<std::int16_t, kVoxelsPerBlock>& values) {
+  const std::int64_t cell = coarse_cell(block);
+  if (cell < 0) throw Error("block outside the map's bounding box");
+  const std::size_t base = static_cast<std::size_t>(allocate_block(cell)) * kWordsPerBlock;
+  for (int w = 0; w < kWordsPerBlock; ++w) {
+    pool_[base + static_cast<std::size_t>(w)] = static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w)]) |
+                                                (static_cast<std::uint32_t>(static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w + 1)])) << 16);
+  }
+}
+
 void TsdfMap::mark_block_free(const Eigen::Vector3i& block) {
   const std::int64_t cell = coarse_cell(block);
   if (cell >= 0 && coarse_[static_cast<std::size_t>(cell)] == kUnknownBlock) coarse_[static_cast<std::size_t>(cell)] = kFreeBlock;

@@ -1,0 +1,34 @@
+#pragma once
+// Sensor-update benchmark: median time of the whole update (weighting + reduction, result on the host) per
+// backend and particle count, on a real map and scan. Prints one JSON object per measurement.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "tsdf_mcl/dataset.hpp"
+#include "tsdf_mcl/endpoint_model.hpp"
+#include "tsdf_mcl/tsdf_map.hpp"
+
+namespace tsdf_mcl::bench {
+
+struct BenchConfig {
+  std::vector<std::size_t> particle_counts{1000, 10000, 50000, 100000};
+  std::size_t points = 1024;
+  std::string spread = "local";          // local: around the scan's true pose; global: uniform over the map box
+  std::vector<std::string> backends{"cpu", "vulkan"};  // also "reference": the baseline of the reference's CPU design
+  std::size_t repetitions = 7;
+  std::size_t warmup = 2;
+  unsigned seed = 1;
+  EndpointModel model;
+  std::string map_name;
+  std::string scan_name;
+};
+
+// Points of the scan spread evenly over the whole scan (every k-th of the finite points), at most `count`.
+std::vector<Eigen::Vector3f> spread_points(const PointCloud& scan, std::size_t count);
+
+// Runs every (backend, particle count) and writes one JSON line per measurement to `out`; progress to stderr.
+void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const Pose& true_pose,
+                             const BenchConfig& config, std::FILE* out);
+
+}  // namespace tsdf_mcl::bench

@@ -1,0 +1,162 @@
+// Import of the HDF5 maps written for the reference implementation (uos/tsdf_localization): group /map, one
+// dataset of 64^3 uint32 per chunk, named "cx_cy_cz"; word = int16 TSDF in mm (low half) | int16 weight (high).
+#include <hdf5.h>
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <tuple>
+#include <string>
+#include <vector>
+
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/map_io.hpp"
+
+namespace tsdf_mcl {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr int kChunkSize = 64;
+constexpr int kChunkVoxels = kChunkSize * kChunkSize * kChunkSize;
+constexpr int kBlocksPerChunk = kChunkSize / TsdfMap::kBlockSize;
+constexpr float kReferenceVoxelSize = 0.064f;
+
+// Owns one HDF5 identifier; the close function depends on the kind of object.
+class H5Handle {
+ public:
+  H5Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~H5Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  H5Handle(const H5Handle&) = delete;
+  H5Handle& operator=(const H5Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+bool parse_int(std::string_view s, int& value) {
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+  return !s.empty() && ec == std::errc() && end == s.data() + s.size();
+}
+
+bool parse_chunk_name(const std::string& name, Eigen::Vector3i& chunk) {
+  const std::size_t a = name.find('_');
+  const std::size_t b = a == std::string::npos ? a : name.find('_', a + 1);
+  if (b == std::string::npos) return false;
+  const std::string_view s(name);
+  return parse_int(s.substr(0, a), chunk.x()) && parse_int(s.substr(a + 1, b - a - 1), chunk.y()) &&
+         parse_int(s.substr(b + 1), chunk.z());
+}
+
+struct Chunk {
+  std::string name;
+  Eigen::Vector3i index;
+};
+
+std::vector<std::uint32_t> read_chunk(hid_t group, const Chunk& chunk, const std::string& where) {
+  const std::string what = where + ": dataset /map/" + chunk.name;
+  const H5Handle set(H5Dopen2(group, chunk.name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.valid()) throw Error(what + " is not a dataset");
+  const H5Handle type(H5Dget_type(set.get()), H5Tclose);
+  if (!type.valid() || H5Tget_class(type.get()) != H5T_INTEGER || H5Tget_size(type.get()) != 4) {
+    throw Error(what + " does not hold 32-bit integers");
+  }
+  const H5Handle space(H5Dget_space(set.get()), H5Sclose);
+  const int rank = space.valid() ? H5Sget_simple_extent_ndims(space.get()) : -1;
+  hsize_t dims[H5S_MAX_RANK] = {};
+  if (rank < 1 || H5Sget_simple_extent_dims(space.get(), dims, nullptr) < 0 ||
+      H5Sget_simple_extent_npoints(space.get()) != kChunkVoxels ||
+      !(rank == 1 || (rank == 3 && dims[0] == kChunkSize && dims[1] == kChunkSize && dims[2] == kChunkSize))) {
+    throw Error(what + " does not have the shape of a 64^3 chunk");
+  }
+  std::vector<std::uint32_t> words(kChunkVoxels);
+  if (H5Dread(set.get(), H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, words.data()) < 0) {
+    throw Error("cannot read " + what);
+  }
+  return words;
+}
+
+}  // namespace
+
+TsdfMap import_reference_h5(const fs::path& file, float truncation) {
+  if (!(truncation >= kReferenceVoxelSize) || !std::isfinite(truncation)) {
+    throw Error("truncation " + std::to_string(truncation) + " m must be at least the reference maps' voxel size (0.064 m)");
+  }
+  const std::string where = "HDF5 map " + file.string();
+  std::error_code ec;
+  if (!fs::exists(file, ec)) throw Error(where + " does not exist");
+  if (fs::is_directory(file, ec)) throw Error(where + " is a directory, not a file");
+  // The library would print its own error stack to stderr; every failure is reported through Error instead.
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  if (H5Fis_hdf5(file.c_str()) <= 0) throw Error(where + ": not an HDF5 file");
+  const H5Handle h5(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!h5.valid()) throw Error("cannot open " + where);
+  if (H5Lexists(h5.get(), "map", H5P_DEFAULT) <= 0) throw Error(where + ": no /map group (not a reference TSDF map)");
+  const H5Handle group(H5Gopen2(h5.get(), "map", H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) throw Error(where + ": /map is not a group");
+  H5G_info_t info{};
+  if (H5Gget_info(group.get(), &info) < 0) throw Error("cannot list /map in " + where);
+
+  std::vector<Chunk> chunks;
+  std::set<std::tuple<int, int, int>> seen;
+  Eigen::Vector3i lo = Eigen::Vector3i::Constant(INT32_MAX), hi = Eigen::Vector3i::Constant(INT32_MIN);
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    const ssize_t length = H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
+    if (length < 0) throw Error("cannot list /map in " + where);
+    std::string name(static_cast<std::size_t>(length) + 1, '\0');
+    H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), name.size(), H5P_DEFAULT);
+    name.resize(static_cast<std::size_t>(length));
+    Chunk c{name, {}};
+    if (!parse_chunk_name(name, c.index)) {
+      throw Error(where + ": dataset /map/" + name + " is not named like a chunk (cx_cy_cz)");
+    }
+    // Voxel indices chunk*64 + 63 must stay within int with room for the block arithmetic.
+    if ((c.index.array().abs() > (1 << 20)).any()) throw Error(where + ": chunk /map/" + name + " is implausibly far out");
+    if (!seen.emplace(c.index.x(), c.index.y(), c.index.z()).second) {
+      throw Error(where + ": two datasets name chunk " + name);
+    }
+    lo = lo.cwiseMin(c.index);
+    hi = hi.cwiseMax(c.index);
+    chunks.push_back(std::move(c));
+  }
+  if (chunks.empty()) throw Error(where + ": /map holds no chunks");
+
+  TsdfMap map(kReferenceVoxelSize, truncation, lo * kBlocksPerChunk, (hi - lo).array() * kBlocksPerChunk + kBlocksPerChunk);
+  std::array<std::int16_t, TsdfMap::kVoxelsPerBlock> block{};
+  for (const Chunk& c : chunks) {
+    const std::vector<std::uint32_t> words = read_chunk(group.get(), c, where);
+    for (int bz = 0; bz < kBlocksPerChunk; ++bz)
+      for (int by = 0; by < kBlocksPerChunk; ++by)
+        for (int bx = 0; bx < kBlocksPerChunk; ++bx) {
+          bool any_known = false;
+          for (int lz = 0; lz < TsdfMap::kBlockSize; ++lz)
+            for (int ly = 0; ly < TsdfMap::kBlockSize; ++ly)
+              for (int lx = 0; lx < TsdfMap::kBlockSize; ++lx) {
+                const int i = bx * TsdfMap::kBlockSize + lx;
+                const int j = by * TsdfMap::kBlockSize + ly;
+                const int k = bz * TsdfMap::kBlockSize + lz;
+                const std::uint32_t word = words[static_cast<std::size_t>((i * kChunkSize + j) * kChunkSize + k)];
+                const auto value_mm = static_cast<std::int16_t>(word & 0xFFFFu);
+                const auto weight = static_cast<std::int16_t>(word >> 16);
+                auto& out = block[static_cast<std::size_t>(lx + TsdfMap::kBlockSize * (ly + TsdfMap::kBlockSize * lz))];
+                // Integration only ever adds positive weights, so anything else is an unobserved voxel.
+                if (weight <= 0) {
+                  out = TsdfMap::kUnknownValue;
+                } else {
+                  out = map.quantize(static_cast<float>(value_mm) * 0.001f);
+                  any_known = true;
+                }
+              }
+          if (any_known) map.set_block(c.index * kBlocksPerChunk + Eigen::Vector3i(bx, by, bz), block);
+        }
+  }
+  map.compact();
+  return map;
+}
+
+}  // namespace tsdf_mcl

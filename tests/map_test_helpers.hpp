@@ -1,0 +1,104 @@
+#pragma once
+// Helpers shared by the map-building tests: a self-deleting temporary folder, raw file writing, the path to the
+// data beside the project, analytic meshes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+
+#include "tsdf_mcl/mesh.hpp"
+
+namespace tsdf_mcl::test {
+
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = "tsdf_mcl_";
+    if (info) name += std::string(info->test_suite_name()) + "_" + info->name();
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline void write_bytes(const std::filesystem::path& file, const std::string& bytes) {
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+inline std::string read_bytes(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+inline std::filesystem::path shared_data() { return TSDF_MCL_SHARED_DATA; }
+
+// Axis-aligned box [lo, hi] with outward normals (counter-clockwise seen from outside).
+inline TriangleMesh box_mesh(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+  TriangleMesh m;
+  for (int i = 0; i < 8; ++i) {
+    m.vertices.emplace_back((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(), (i & 4) ? hi.z() : lo.z());
+  }
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.triangles.emplace_back(q[0], q[1], q[2]);
+    m.triangles.emplace_back(q[0], q[2], q[3]);
+  }
+  return m;
+}
+
+// Icosphere: an icosahedron subdivided `levels` times, vertices projected onto the sphere; outward normals.
+inline TriangleMesh icosphere(const Eigen::Vector3f& center, float radius, int levels) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  std::vector<Eigen::Vector3f> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (auto& p : v) p.normalize();
+  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  for (int level = 0; level < levels; ++level) {
+    std::map<std::pair<int, int>, int> midpoint;
+    auto mid = [&](int a, int b) {
+      const auto key = std::minmax(a, b);
+      auto it = midpoint.find(key);
+      if (it != midpoint.end()) return it->second;
+      v.push_back((v[static_cast<std::size_t>(a)] + v[static_cast<std::size_t>(b)]).normalized());
+      const int index = static_cast<int>(v.size()) - 1;
+      midpoint.emplace(key, index);
+      return index;
+    };
+    std::vector<Eigen::Vector3i> next;
+    for (const auto& tri : f) {
+      const int a = mid(tri[0], tri[1]), b = mid(tri[1], tri[2]), c = mid(tri[2], tri[0]);
+      next.emplace_back(tri[0], a, c);
+      next.emplace_back(tri[1], b, a);
+      next.emplace_back(tri[2], c, b);
+      next.emplace_back(a, b, c);
+    }
+    f = std::move(next);
+  }
+  TriangleMesh m;
+  for (const auto& p : v) m.vertices.push_back(center + radius * p);
+  m.triangles = std::move(f);
+  return m;
+}
+
+}  // namespace tsdf_mcl::test

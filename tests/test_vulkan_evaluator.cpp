@@ -1,0 +1,167 @@
+// GPU-vs-CPU agreement of the sensor update: endpoint_weight.comp against the CPU evaluator and reduce.comp
+// against the CPU reduction, on lavapipe with the validation layers on (any validation message fails).
+#include <gtest/gtest.h>
+
+#include "cpu/cpu_evaluator.hpp"
+#include "cpu/weight_reduction.hpp"
+#include "sensor_test_support.hpp"
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+EvaluatorOptions vulkan_options(bool subgroup = true) {
+  EvaluatorOptions o;
+  o.backend = Backend::kVulkan;
+  o.validation = true;
+  o.subgroup_reduction = subgroup;
+  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
+  return o;
+}
+
+std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true) {
+  try {
+    return make_evaluator(map, vulkan_options(subgroup));
+  } catch (const Error& e) {
+    ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
+    return nullptr;
+  }
+}
+
+void copy_particles(const ParticleArrays& from, const ParticleArrays& to, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) to.set(i, from.position(i), from.rotation(i));
+}
+
+void expect_summaries_close(const WeightSummary& gpu, const WeightSummary& cpu) {
+  EXPECT_NEAR(gpu.max_log_weight, cpu.max_log_weight, 1e-5 * std::abs(cpu.max_log_weight) + 1e-5);
+  EXPECT_NEAR(gpu.weight_sum, cpu.weight_sum, 1e-4 * cpu.weight_sum);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(gpu.mean_position[a], cpu.mean_position[a], 1e-4 * (1.0 + std::abs(cpu.mean_position[a])));
+  for (int a = 0; a < 4; ++a) EXPECT_NEAR(gpu.quaternion_sum[a], cpu.quaternion_sum[a], 1e-4 * cpu.weight_sum);
+  EXPECT_NEAR(gpu.fit_sum, cpu.fit_sum, 1e-4 * cpu.fit_sum);
+}
+
+struct Variant {
+  Likelihood likelihood;
+  Interpolation interpolation;
+};
+
+class VulkanVsCpu : public ::testing::TestWithParam<Variant> {};
+
+TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
+  const TsdfMap map = test::make_room_map();
+  auto gpu = make_vulkan(map);
+  ASSERT_TRUE(gpu);
+  CpuEvaluator cpu(map, 2);
+  std::mt19937 rng(7);
+  const std::size_t n = 2000;
+  gpu->reserve(n, 512);
+  cpu.reserve(n, 512);
+  test::random_particles(cpu.particles(), n, rng, Eigen::Vector3f(-3.4f, -2.4f, -0.3f), Eigen::Vector3f(3.4f, 2.4f, 3.3f));
+  copy_particles(cpu.particles(), gpu->particles(), n);
+  const auto scan = test::random_scan(512, rng);
+  gpu->set_points(scan);
+  cpu.set_points(scan);
+  EndpointModel model;
+  model.sigma_hit = 0.12f;
+  model.likelihood = GetParam().likelihood;
+  model.interpolation = GetParam().interpolation;
+  model.weight_exponent = 0.3f;
+  const Eigen::Quaternionf ref = Eigen::Quaternionf::UnitRandom();
+  const WeightSummary g = gpu->evaluate(n, model, ref);
+  const WeightSummary c = cpu.evaluate(n, model, ref);
+  const ParticleArrays gp = gpu->particles();
+  const ParticleArrays cp = cpu.particles();
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_NEAR(gp.log_weight[i], cp.log_weight[i], 1e-4 * std::abs(cp.log_weight[i]) + 1e-5) << "particle " << i;
+  }
+  expect_summaries_close(g, c);
+  EXPECT_TRUE(std::isfinite(gpu->last_timings().evaluate_ms));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
+                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest},
+                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear},
+                                           Variant{Likelihood::kSum, Interpolation::kNearest},
+                                           Variant{Likelihood::kSum, Interpolation::kTrilinear}));
+
+// reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
+// reduction of the very log-weights the GPU computed.
+class VulkanReduction : public ::testing::TestWithParam<bool> {};
+
+TEST_P(VulkanReduction, AwkwardParticleCounts) {
+  const TsdfMap map = test::make_room_map();
+  auto gpu = make_vulkan(map, GetParam());
+  ASSERT_TRUE(gpu);
+  std::mt19937 rng(9);
+  const auto scan = test::random_scan(8, rng);
+  gpu->set_points(scan);
+  EndpointModel model;
+  model.sigma_hit = 0.2f;
+  for (std::size_t n : {1u, 2u, 7u, 8u, 9u, 63u, 64u, 65u, 255u, 256u, 1023u, 1024u, 1025u, 4097u, 100003u}) {
+    SCOPED_TRACE(n);
+    gpu->reserve(n, scan.size());
+    test::random_particles(gpu->particles(), n, rng, Eigen::Vector3f(-3, -2, 0), Eigen::Vector3f(3, 2, 3));
+    const Eigen::Quaternionf ref = Eigen::Quaternionf::UnitRandom();
+    const WeightSummary g = gpu->evaluate(n, model, ref);
+    const WeightSummary c = reduce_weights(gpu->particles(), n, ref, fit_constants(model, scan.size()));
+    expect_summaries_close(g, c);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(SubgroupAndShared, VulkanReduction, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "subgroup" : "shared_memory"; });
+
+TEST(VulkanEvaluator, GrowingKeepsParticlesAndSwapUsesTheOtherSet) {
+  const TsdfMap map = test::make_room_map();
+  auto gpu = make_vulkan(map);
+  ASSERT_TRUE(gpu);
+  gpu->reserve(10, 4);
+  gpu->particles().set(3, Eigen::Vector3f(1, 2, 3), Eigen::Quaternionf::Identity());
+  gpu->reserve(50000, 20000);
+  EXPECT_GE(gpu->particles().capacity, 50000u);
+  EXPECT_EQ(gpu->particles().position(3), Eigen::Vector3f(1, 2, 3));
+  std::mt19937 rng(1);
+  const auto scan = test::random_scan(100, rng);
+  gpu->set_points(scan);
+  test::random_particles(gpu->spare_particles(), 100, rng, Eigen::Vector3f(-3, -2, 0), Eigen::Vector3f(3, 2, 3));
+  gpu->swap_particles();
+  EndpointModel model;
+  gpu->evaluate(100, model, Eigen::Quaternionf::Identity());
+  const ParticleArrays p = gpu->particles();
+  for (std::size_t i = 0; i < 100; ++i) {
+    ASSERT_NEAR(p.log_weight[i], reference_log_weight(map, model, p.position(i), p.rotation(i), scan),
+                1e-4 * std::abs(p.log_weight[i]));
+  }
+}
+
+TEST(VulkanEvaluator, BadInputIsAnError) {
+  const TsdfMap map = test::make_room_map();
+  auto gpu = make_vulkan(map);
+  ASSERT_TRUE(gpu);
+  EndpointModel model;
+  gpu->reserve(8, 8);
+  EXPECT_THROW(gpu->evaluate(8, model, Eigen::Quaternionf::Identity()), Error);  // no points yet
+  EXPECT_THROW(gpu->set_points({Eigen::Vector3f(0, NAN, 0)}), Error);
+  gpu->set_points({Eigen::Vector3f(1, 0, 0)});
+  EXPECT_THROW(gpu->evaluate(gpu->particles().capacity + 1, model, Eigen::Quaternionf::Identity()), Error);
+  model.z_rand = 0.0f;
+  EXPECT_THROW(gpu->evaluate(1, model, Eigen::Quaternionf::Identity()), Error);
+  EXPECT_THROW(make_evaluator(TsdfMap(), vulkan_options()), Error);
+}
+
+TEST(EvaluatorFactory, AutoSaysWhatItPickedAndCpuIsAlwaysThere) {
+  const TsdfMap map = test::make_room_map();
+  std::string note;
+  EvaluatorOptions o;
+  o.backend = Backend::kCpu;
+  EXPECT_EQ(make_evaluator(map, o, &note)->backend(), "cpu");
+  EXPECT_NE(note.find("cpu"), std::string::npos);
+  o.backend = Backend::kAuto;
+  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << m; };
+  const auto e = make_evaluator(map, o, &note);
+  EXPECT_NE(note.find(e->backend()), std::string::npos) << note;
+  EXPECT_THROW(parse_backend("cuda"), Error);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl
