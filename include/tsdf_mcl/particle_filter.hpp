@@ -34,19 +34,21 @@ struct FilterParameters {
   // particle count outside [particles / 2, particles] (the count only changes by resampling).
   std::size_t resample_interval = 1;
   double resample_ess_ratio = 0.5;
-  // Recovery (augmented MCL): while w_fast < w_slow, round((1 - w_fast / w_slow) * max_particles) random
-  // particles join the next generation. Scaling by max_particles rather than by the current count makes the
+  // Recovery (augmented MCL): round(share * max_particles) random particles join the next generation, with
+  // share = 1 - w_fast / (w_slow (1 - recovery_margin)) clamped to [0, 1] (see recovery.hpp). Scaling by max_particles rather than by the current count makes the
   // response follow the evidence: a brief dip in fit adds a few random particles to a small converged set, a
   // lost track floods the map. The fit averaged is WeightSummary::fit_sum / n, except right after an
   // injection: then it is the same mean taken over the particles that descend from the belief only, because
   // the fresh random particles fit badly by nature, and counting them would keep the fit low and the
   // injection going after the track is found again. Both 0 = off.
   double recovery_alpha_slow = 0.02;
-  double recovery_alpha_fast = 0.2;
+  double recovery_alpha_fast = 0.1;
+  double recovery_margin = 0.3;
   EndpointModel sensor;  // sigma_hit, z_hit, z_rand, max_range (= laser_max_range), weight_exponent
   // Adaptive tempering: if the weights of an update would leave fewer than min_ess_ratio * particles
-  // effective particles, its log-likelihoods are scaled down until they do not. Keeps a peaky likelihood from
-  // collapsing the set onto a few lucky particles. 0 = off.
+  // effective particles (particles injected by recovery in the last resampling not counted), its
+  // log-likelihoods are scaled down until they do not. Keeps a peaky likelihood from collapsing the set onto a
+  // few lucky particles. 0 = off.
   double min_ess_ratio = 0.1;
   MotionParameters motion;
   double update_min_d = 0.1;  // m
@@ -134,6 +136,7 @@ class ParticleFilter {
   std::size_t updates_since_resample_ = 0;
   std::size_t injected_begin_ = 0;  // particles [injected_begin_, injected_end_) came from recovery
   std::size_t injected_end_ = 0;
+  bool ever_converged_ = false;  // since the last initialization
 
   std::vector<double> prior_log_weight_;  // carried between updates that do not resample
   std::vector<double> weights_;           // exp(log weight - max)

@@ -31,7 +31,7 @@ void FilterParameters::validate() const {
   if (resample_interval == 0) throw Error("resample_interval must be at least 1");
   if (!(resample_ess_ratio >= 0.0 && resample_ess_ratio <= 1.0)) throw Error("resample_ess_ratio must lie in [0, 1]");
   if (!(min_ess_ratio >= 0.0 && min_ess_ratio < 1.0)) throw Error("min_ess_ratio must lie in [0, 1)");
-  RecoveryMonitor{recovery_alpha_slow, recovery_alpha_fast};  // throws for bad alphas
+  RecoveryMonitor{recovery_alpha_slow, recovery_alpha_fast, recovery_margin};  // throws for bad alphas
   sensor.validate();
   motion.validate();
   if (!(update_min_d >= 0.0) || !std::isfinite(update_min_d)) throw Error("update_min_d must not be negative");
@@ -48,7 +48,7 @@ ParticleFilter::ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, c
       params_(params),
       kld_(params.kld),
       estimator_(params.estimate),
-      recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast) {
+      recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin) {
   params_.validate();
   if (map.empty()) throw Error("the map is empty");
   capacity_ = std::max(params_.initial_particles, params_.kld.max_particles);
@@ -76,6 +76,7 @@ void ParticleFilter::start(std::size_t count) {
   updates_since_resample_ = 0;
   injected_begin_ = injected_end_ = 0;
   recovery_.reset();
+  ever_converged_ = false;
   estimate_ = PoseEstimate{};
 }
 
@@ -101,7 +102,10 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
       throw Error("sensor update gave particle " + std::to_string(i) + " a non-finite weight");
     }
   }
-  const double target = params_.min_ess_ratio * static_cast<double>(n);
+  // Freshly injected random particles do not count: they are guesses, not belief, and a floor that grew with
+  // them would hand their weight back to them whenever recovery floods a converged set.
+  const std::size_t fresh = std::min(injected_end_, n) - std::min(injected_begin_, n);
+  const double target = params_.min_ess_ratio * static_cast<double>(fresh < n ? n - fresh : n);
   double beta = 1.0;
   double ess = tempered(prior_log_weight_.data(), p.log_weight, n, 1.0, weights_.data());
   if (ess < target) {
@@ -230,13 +234,16 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
 
   t0 = Clock::now();
   prepare_weights(n, step);
-  step.fit = belief_fit(n, summary, points.size());
-  step.random_share = recovery_.update(step.fit);
-  step.w_slow = recovery_.w_slow();
-  step.w_fast = recovery_.w_fast();
   const bool was_converged = estimate_.converged;
   estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
   step.estimate = estimate_;
+  step.fit = belief_fit(n, summary, points.size());
+  // The fit averages start at the first convergence: a belief spread over the map fits badly by nature, and
+  // a long-term average that remembers that phase would set the bar too low to ever notice a wrong lock.
+  ever_converged_ = ever_converged_ || estimate_.converged;
+  if (ever_converged_) step.random_share = recovery_.update(step.fit);
+  step.w_slow = recovery_.w_slow();
+  step.w_fast = recovery_.w_fast();
   step.timings.reduce_ms = ms_since(t0);
 
   if (params_.motion.type == MotionModelType::kConstantVelocity) {

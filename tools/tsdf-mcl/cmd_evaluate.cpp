@@ -1,8 +1,102 @@
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
 #include "commands.hpp"
+#include "options.hpp"
+#include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/line_plot.hpp"
+#include "tsdf_mcl/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::cli {
+namespace {
 
-int run_evaluate(int, char**) { throw Error("evaluate: not implemented yet"); }
+constexpr double kDeg = 57.29577951308232;
+
+// Translation error per axis over time, as in the paper's figures.
+void plot_errors(const TrajectoryMetrics& m, const std::string& file) {
+  LinePlot plot;
+  plot.title = "translation error per axis";
+  plot.x_label = "time [s]";
+  plot.y_label = "error [m]";
+  const Rgb colors[4] = {{214, 39, 40}, {44, 160, 44}, {31, 119, 180}, {40, 40, 40}};
+  const char* labels[4] = {"x", "y", "z", "norm"};
+  for (int a = 0; a < 4; ++a) {
+    PlotSeries s;
+    s.label = labels[a];
+    s.color = colors[a];
+    for (const PoseError& e : m.errors) {
+      s.x.push_back(e.time - m.errors.front().time);
+      s.y.push_back(a < 3 ? e.translation[a] : e.translation_norm);
+    }
+    plot.series.push_back(std::move(s));
+  }
+  if (m.converged) plot.markers.emplace_back(m.convergence_time, "converged");
+  write_plot_png(plot, file);
+}
+
+}  // namespace
+
+int run_evaluate(int argc, char** argv) {
+  Options o("evaluate", "tsdf-mcl evaluate --estimate OUT/trajectory.tum --dataset DIR [--plot FILE.png]",
+            {
+                {"estimate", "FILE", "", "estimated trajectory (TUM: t x y z qx qy qz qw, world_T_sensor)"},
+                {"dataset", "DIR", "", "dataset whose poses.txt and times.txt are the ground truth"},
+                {"plot", "FILE.png", "", "also draw the translation error per axis over time"},
+                {"max_translation_error", "M", "0.3", "a scan counts as localized within this distance (m)"},
+                {"max_rotation_error", "DEG", "5", "... and within this rotation error (degrees)"},
+                {"time_tolerance", "S", "0.02", "estimates without an exact timestamp match take the nearest ground truth within this (s)"},
+            },
+            argc, argv, 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  o.expect_positional(0, "no positional arguments");
+  const std::string estimate_file = o.text("estimate");
+  const Dataset dataset = Dataset::open(o.text("dataset"));
+  if (!dataset.has_poses()) throw Error("evaluate: dataset " + dataset.dir().string() + " has no poses.txt (ground truth)");
+  MetricsOptions mo;
+  mo.max_translation_error = o.number("max_translation_error");
+  mo.max_rotation_error = o.number("max_rotation_error") / kDeg;
+  mo.time_tolerance = o.number("time_tolerance");
+  if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
+    throw Error("evaluate: thresholds must be positive and the time tolerance non-negative");
+  }
+  const std::vector<StampedPose> estimate = read_tum(estimate_file);
+  if (estimate.empty()) throw Error("evaluate: " + estimate_file + " holds no poses");
+  const TrajectoryMetrics m = evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo);
+
+  nlohmann::json j;
+  j["estimate"] = estimate_file;
+  j["dataset"] = dataset.dir().string();
+  j["scans"] = m.errors.size();
+  j["converged"] = m.converged;
+  j["localized_fraction"] = m.localized_fraction;
+  j["thresholds"] = {{"translation_m", mo.max_translation_error}, {"rotation_deg", mo.max_rotation_error * kDeg}};
+  if (m.converged) {
+    const PoseError& first = m.errors[m.convergence_index];
+    j["convergence"] = {{"estimate_index", m.convergence_index},
+                        {"scan", first.truth_index},
+                        {"time_s", m.convergence_time}};
+    j["after_convergence"] = {{"scans", m.converged_count},
+                              {"ate_rmse_m", m.ate_rmse},
+                              {"rotation_rmse_deg", m.rotation_rmse * kDeg},
+                              {"max_translation_error_m", m.max_translation_error},
+                              {"max_rotation_error_deg", m.max_rotation_error * kDeg}};
+  } else {
+    j["convergence"] = nullptr;
+    j["after_convergence"] = nullptr;
+  }
+  if (const auto plot = o.maybe("plot")) {
+    plot_errors(m, *plot);
+    j["plot"] = *plot;
+  }
+  std::printf("%s\n", j.dump(2).c_str());
+  return 0;
+}
 
 }  // namespace tsdf_mcl::cli

@@ -1,0 +1,76 @@
+#include "tsdf_mcl/trajectory_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl {
+
+TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, const std::vector<double>& times,
+                                      const std::vector<Pose>& poses, const MetricsOptions& options) {
+  if (times.size() != poses.size()) {
+    throw Error("evaluate: " + std::to_string(times.size()) + " ground-truth times but " + std::to_string(poses.size()) +
+                " poses");
+  }
+  if (estimate.empty()) throw Error("evaluate: the estimated trajectory is empty");
+  if (times.empty()) throw Error("evaluate: no ground truth");
+  if (!std::is_sorted(times.begin(), times.end())) throw Error("evaluate: ground-truth times are not sorted");
+
+  TrajectoryMetrics m;
+  m.errors.reserve(estimate.size());
+  for (const StampedPose& e : estimate) {
+    const auto it = std::lower_bound(times.begin(), times.end(), e.time);
+    std::size_t best = times.size();
+    double gap = std::numeric_limits<double>::infinity();
+    for (auto c : {it, it == times.begin() ? it : it - 1}) {
+      if (c == times.end()) continue;
+      const double g = std::abs(*c - e.time);
+      if (g < gap) {
+        gap = g;
+        best = static_cast<std::size_t>(c - times.begin());
+      }
+    }
+    if (best == times.size() || (gap > 1e-6 && gap > options.time_tolerance)) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), "evaluate: estimate at t=%.9f has no ground-truth pose within %.3f s", e.time,
+                    options.time_tolerance);
+      throw Error(buf);
+    }
+    PoseError pe;
+    pe.time = e.time;
+    pe.truth_index = best;
+    pe.translation = e.pose.translation() - poses[best].translation();
+    pe.translation_norm = pe.translation.norm();
+    pe.rotation = rotation_angle_between(e.pose.linear(), poses[best].linear());
+    pe.localized = pe.translation_norm <= options.max_translation_error && pe.rotation <= options.max_rotation_error;
+    m.errors.push_back(pe);
+  }
+
+  std::size_t localized = 0;
+  for (const PoseError& pe : m.errors) localized += pe.localized ? 1 : 0;
+  m.localized_fraction = static_cast<double>(localized) / static_cast<double>(m.errors.size());
+  // The convergence point: right after the last estimate that is not localized.
+  std::size_t k = m.errors.size();
+  while (k > 0 && m.errors[k - 1].localized) --k;
+  m.converged = k < m.errors.size();
+  if (!m.converged) return m;
+  m.convergence_index = k;
+  m.convergence_time = m.errors[k].time - m.errors.front().time;
+  double t2 = 0.0, r2 = 0.0;
+  for (std::size_t i = k; i < m.errors.size(); ++i) {
+    const PoseError& pe = m.errors[i];
+    t2 += pe.translation_norm * pe.translation_norm;
+    r2 += pe.rotation * pe.rotation;
+    m.max_translation_error = std::max(m.max_translation_error, pe.translation_norm);
+    m.max_rotation_error = std::max(m.max_rotation_error, pe.rotation);
+  }
+  m.converged_count = m.errors.size() - k;
+  m.ate_rmse = std::sqrt(t2 / static_cast<double>(m.converged_count));
+  m.rotation_rmse = std::sqrt(r2 / static_cast<double>(m.converged_count));
+  return m;
+}
+
+}  // namespace tsdf_mcl
