@@ -15,6 +15,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+// The constant-velocity model trusts the motion between two estimates only while both are this certain (m,
+// standard deviation of the dominant mode): looser than `converged`, so that a track still settling after a
+// local initialization already has a velocity, but far below the spread of a global belief.
+constexpr double kVelocityMaxStd = 0.5;
+
 // Tempered weights exp(prior + beta * l - max) into w; returns their effective sample size.
 double tempered(const double* prior, const float* l, std::size_t n, double beta, double* w) {
   double max = -std::numeric_limits<double>::infinity();
@@ -234,7 +239,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
 
   t0 = Clock::now();
   prepare_weights(n, step);
-  const bool was_converged = estimate_.converged;
+  const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
   estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
   step.estimate = estimate_;
   step.fit = belief_fit(n, summary, points.size());
@@ -247,8 +252,9 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   step.timings.reduce_ms = ms_since(t0);
 
   if (params_.motion.type == MotionModelType::kConstantVelocity) {
-    // Only a converged track has a velocity; the jumps of a spread belief's estimate are not motion.
-    if (has_update_ && was_converged && estimate_.converged && time > last_time_) {
+    // Only a localized track has a velocity; the jumps of a spread belief's estimate are not motion.
+    const bool localized = estimate_.std_position <= kVelocityMaxStd;
+    if (has_update_ && was_localized && localized && time > last_time_) {
       velocity_delta_ = last_estimate_pose_.inverse() * estimate_.pose;
       velocity_dt_ = time - last_time_;
     } else {
