@@ -1,6 +1,6 @@
 // TSDF integration of registered scans.
 //
-// Every ray (sensor origin -> point) is walked voxel by voxel (Amanatides & Woo). A voxel's observation is the
+// Every ray (sensor origin -> point) is walked through the grid (Amanatides & Woo). A voxel's observation is the
 // projective signed distance sdf = range - (centre - origin).u: inside the band (|sdf| <= truncation) it updates a
 // weighted running average, kept as sums of w*sdf and w so that the order of the updates does not matter; in front
 // of the band it is a free-space observation (+truncation, weight 1); behind the band nothing is learned.
@@ -15,7 +15,7 @@
 // leave between them far from the sensor (no surface was seen there, or the block would be a band block).
 //
 // Parallelism without locks or atomics: every thread walks every ray but writes only the blocks it owns
-// (coarse cell modulo the thread count), and descends to voxels only in its own blocks. The result is the same
+// (by coarse cell modulo the thread count), and descends to voxels only in its own blocks. The result is the same
 // whatever the thread count.
 #include <omp.h>
 
@@ -102,19 +102,20 @@ void walk(const Vector3f& origin, const Vector3f& dir, float t0, float t1, float
   }
 }
 
-// The accumulator: a dense index over the observed box in blocks, and per-thread pools of the band blocks each
-// thread owns.
+// The accumulator: a dense index over the observed box in blocks, and one pool of band blocks per owner.
 class Accumulator {
  public:
-  Accumulator(const TsdfMap& box, int threads)
+  Accumulator(const TsdfMap& box, int owners)
       : voxel_(box.voxel_size()), truncation_(box.truncation()), min_block_(box.min_block()),
-        dims_(box.dims_blocks()), threads_(threads), slot_(box.coarse_index().size(), kNoBlock),
-        band_(static_cast<std::size_t>(threads)) {}
+        dims_(box.dims_blocks()), owners_(owners), slot_(box.coarse_index().size(), kNoBlock),
+        band_(static_cast<std::size_t>(owners)) {}
 
   // One thread's view. It caches the block of the previous voxel: consecutive voxels of a ray mostly share one.
   class Writer {
    public:
-    Writer(Accumulator& acc, int thread) : acc_(acc), thread_(thread) {}
+    // Thread `thread` of a team of `team` writes the blocks of the owners o with o % team == thread: the runtime
+    // may grant fewer threads than the accumulator was made for, and every owner must still be served.
+    Writer(Accumulator& acc, int thread, int team) : acc_(acc), thread_(thread), team_(team) {}
 
     // The band observations of the ray origin -> origin + range * u.
     void band(const Vector3f& origin, const Vector3f& u, float range) {
@@ -126,7 +127,7 @@ class Accumulator {
              const float weight = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
              if (weight <= 0.0f) return;
              std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
-             auto& pool = acc_.band_[static_cast<std::size_t>(thread_)];
+             auto& pool = acc_.band_[static_cast<std::size_t>(owner_)];
              if (slot == kNoBlock) {
                slot = static_cast<std::uint32_t>(pool.size());
                pool.emplace_back();
@@ -149,7 +150,7 @@ class Accumulator {
           slot = kCarvedBlock;
           return;
         }
-        BandBlock& b = acc_.band_[static_cast<std::size_t>(thread_)][slot];
+        BandBlock& b = acc_.band_[static_cast<std::size_t>(owner_)][slot];
         walk(origin, u, t_in, t_out, voxel, 1, [&](const Vector3i& v, float, float) {
           // Float rounding at the block's faces may start or end the walk in a neighbour's voxel.
           if (block_of(v) != block || range - (v.cast<float>() * voxel - origin).dot(u) <= trunc) return;
@@ -177,14 +178,16 @@ class Accumulator {
         owned_ = (c.array() >= 0).all() && (c.array() < acc_.dims_.array()).all();
         if (owned_) {
           cell_ = c.x() + static_cast<std::int64_t>(acc_.dims_.x()) * (c.y() + static_cast<std::int64_t>(acc_.dims_.y()) * c.z());
-          owned_ = cell_ % acc_.threads_ == thread_;
+          owner_ = static_cast<int>(cell_ % acc_.owners_);
+          owned_ = owner_ % team_ == thread_;
         }
       }
       return owned_;
     }
 
     Accumulator& acc_;
-    int thread_;
+    int thread_, team_;
+    int owner_ = 0;
     Vector3i block_ = Vector3i::Constant(std::numeric_limits<int>::min());
     std::int64_t cell_ = -1;
     bool owned_ = false;
@@ -204,7 +207,7 @@ class Accumulator {
         map.mark_block_free(block);
         continue;
       }
-      const BandBlock& b = band_[static_cast<std::size_t>(c % threads_)][slot];
+      const BandBlock& b = band_[static_cast<std::size_t>(c % owners_)][slot];
       for (std::size_t l = 0; l < kVoxels; ++l) {
         values[l] = b.sum_w[l] > 0.0f ? map.quantize(b.sum_wd[l] / b.sum_w[l]) : TsdfMap::kUnknownValue;
       }
@@ -216,7 +219,7 @@ class Accumulator {
  private:
   float voxel_, truncation_;
   Vector3i min_block_, dims_;
-  int threads_;
+  int owners_;  // blocks are owned by coarse cell modulo owners_
   std::vector<std::uint32_t> slot_;  // kNoBlock, kCarvedBlock or a band block number in the owner's pool
   std::vector<std::deque<BandBlock>> band_;  // deques: blocks never move once allocated
 };
@@ -287,7 +290,7 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
       const WorldScan scan = load_world_scan(dataset, i, options);
 #pragma omp parallel num_threads(threads)
       {
-        Accumulator::Writer writer(acc, omp_get_thread_num());
+        Accumulator::Writer writer(acc, omp_get_thread_num(), omp_get_num_threads());
         for (const Vector3f& p : scan.points) {
           const Vector3f ray = p - scan.origin;
           const float range = ray.norm();
