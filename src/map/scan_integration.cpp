@@ -40,10 +40,12 @@ constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
 constexpr std::uint32_t kNoBlock = 0xFFFFFFFFu;
 constexpr std::uint32_t kCarvedBlock = 0xFFFFFFFEu;  // crossed by rays, no band voxel: free as a whole
 
-struct BandBlock {
-  std::array<float, kVoxels> sum_wd{};
-  std::array<float, kVoxels> sum_w{};
+// Σ w·sdf and Σ w side by side: an update touches one cache line.
+struct VoxelSums {
+  float wd = 0.0f;
+  float w = 0.0f;
 };
+using BandBlock = std::array<VoxelSums, kVoxels>;
 
 // Points of one scan in the world frame, range-filtered.
 struct WorldScan {
@@ -132,10 +134,9 @@ class Accumulator {
                slot = static_cast<std::uint32_t>(pool.size());
                pool.emplace_back();
              }
-             BandBlock& b = pool[slot];
-             const std::size_t l = local(v);
-             b.sum_wd[l] += weight * sdf;
-             b.sum_w[l] += weight;
+             VoxelSums& sums = pool[slot][local(v)];
+             sums.wd += weight * sdf;
+             sums.w += weight;
            });
     }
 
@@ -154,9 +155,9 @@ class Accumulator {
         walk(origin, u, t_in, t_out, voxel, 1, [&](const Vector3i& v, float, float) {
           // Float rounding at the block's faces may start or end the walk in a neighbour's voxel.
           if (block_of(v) != block || range - (v.cast<float>() * voxel - origin).dot(u) <= trunc) return;
-          const std::size_t l = local(v);
-          b.sum_wd[l] += trunc;
-          b.sum_w[l] += 1.0f;
+          VoxelSums& sums = b[local(v)];
+          sums.wd += trunc;
+          sums.w += 1.0f;
         });
       });
     }
@@ -209,7 +210,7 @@ class Accumulator {
       }
       const BandBlock& b = band_[static_cast<std::size_t>(c % owners_)][slot];
       for (std::size_t l = 0; l < kVoxels; ++l) {
-        values[l] = b.sum_w[l] > 0.0f ? map.quantize(b.sum_wd[l] / b.sum_w[l]) : TsdfMap::kUnknownValue;
+        values[l] = b[l].w > 0.0f ? map.quantize(b[l].wd / b[l].w) : TsdfMap::kUnknownValue;
       }
       map.set_block(block, values);
     }
