@@ -15,11 +15,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-bool same_model(const EndpointModel& a, const EndpointModel& b) {
-  return a.sigma_hit == b.sigma_hit && a.z_hit == b.z_hit && a.z_rand == b.z_rand && a.max_range == b.max_range &&
-         a.likelihood == b.likelihood;
-}
-
 }  // namespace
 
 CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads)
@@ -76,18 +71,8 @@ void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
 }
 
 void CpuEvaluator::rebuild_tables(const EndpointModel& model) {
-  if (table_valid_ && same_model(model, table_model_)) return;
-  const kernel::ModelConstants k(model);
-  table_.resize(65536);
-  for (int q = -32768; q <= 32767; ++q) {
-    float v;
-    if (q == TsdfMap::kUnknownValue) {
-      v = k.p_rand;
-    } else {
-      v = k.likelihood(static_cast<float>(q) * map_view_.quant_step);
-    }
-    table_[static_cast<std::size_t>(q + 32768)] = model.likelihood == Likelihood::kProduct ? std::log(v) : v;
-  }
+  if (table_valid_ && kernel::same_table(model, table_model_)) return;
+  kernel::likelihood_table(model, map_view_.quant_step, table_);
   table_model_ = model;
   table_valid_ = true;
 }
