@@ -12,6 +12,10 @@ layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const uint INTERPOLATION = 0u;  // 0 nearest, 1 trilinear
 layout(constant_id = 2) const uint LIKELIHOOD = 0u;     // 0 product (log domain), 1 sum
 layout(constant_id = 3) const uint CHUNK_SHIFT = 17u;   // pool chunk = block >> CHUNK_SHIFT (maxStorageBufferRange split)
+layout(constant_id = 4) const uint POOL_CHUNKS = 1u;    // chunks in use (1..4): unused reads compile away
+// Nearest lookups read p (or log p) per quantized distance from a table the host fills, instead of computing
+// exp and log per point: a win on CPU devices (lavapipe), where transcendentals are long polynomials.
+layout(constant_id = 5) const uint USE_TABLE = 0u;
 
 // Particle structure-of-arrays: x y z qw qx qy qz log_weight, each `capacity` floats.
 layout(std430, binding = 0) buffer Particles { float particle[]; };
@@ -21,6 +25,7 @@ layout(std430, binding = 3) readonly buffer Pool0 { uint pool0[]; };
 layout(std430, binding = 4) readonly buffer Pool1 { uint pool1[]; };
 layout(std430, binding = 5) readonly buffer Pool2 { uint pool2[]; };
 layout(std430, binding = 6) readonly buffer Pool3 { uint pool3[]; };
+layout(std430, binding = 7) readonly buffer Table { float table[]; };  // index q + 32768
 
 // Mirrored by gpu::EndpointPushConstants (src/gpu/push_constants.hpp).
 layout(push_constant) uniform Params {
@@ -41,25 +46,29 @@ layout(push_constant) uniform Params {
 } pc;
 
 uint pool_word(uint block, uint word) {
+  if (POOL_CHUNKS == 1u) return pool0[block * BLOCK_WORDS + word];
   const uint chunk = block >> CHUNK_SHIFT;
   const uint index = ((block & ((1u << CHUNK_SHIFT) - 1u)) * BLOCK_WORDS) + word;
   if (chunk == 0u) return pool0[index];
-  if (chunk == 1u) return pool1[index];
-  if (chunk == 2u) return pool2[index];
+  if (POOL_CHUNKS == 2u || chunk == 1u) return pool1[index];
+  if (POOL_CHUNKS == 3u || chunk == 2u) return pool2[index];
   return pool3[index];
 }
 
-// Quantized distance of voxel v, or UNKNOWN_VALUE outside the map / in unknown space.
+// Quantized distance of voxel v, or UNKNOWN_VALUE outside the map / in unknown space. Straight-line code: every
+// read happens (clamped in range: the first block always exists) and the result is selected, which SIMD
+// devices like lavapipe run without masked branches.
 int fetch(ivec3 v) {
   // Unsigned wrap-around turns "below the box" into "beyond the box": the bounds guard is one compare per axis.
   const uvec3 r = uvec3(v - pc.min_voxel);
-  if (any(greaterThanEqual(r, pc.dims_voxels))) return UNKNOWN_VALUE;
-  const uint cell = (r.x >> 3) + pc.dims_blocks_x * ((r.y >> 3) + pc.dims_blocks_y * (r.z >> 3));
-  const uint entry = coarse[cell];
-  if (entry >= FREE_BLOCK) return entry == FREE_BLOCK ? QUANT_MAX : UNKNOWN_VALUE;
-  const uint l = (r.x & 7u) + 8u * ((r.y & 7u) + 8u * (r.z & 7u));
-  const uint word = pool_word(entry, l >> 1);
-  return bitfieldExtract(int(word), int((l & 1u) << 4), 16);
+  const bool inside = all(lessThan(r, pc.dims_voxels));
+  const uvec3 rc = min(r, pc.dims_voxels - 1u);
+  const uint entry = coarse[(rc.x >> 3) + pc.dims_blocks_x * ((rc.y >> 3) + pc.dims_blocks_y * (rc.z >> 3))];
+  const bool allocated = inside && entry < FREE_BLOCK;
+  const uint l = (rc.x & 7u) + 8u * ((rc.y & 7u) + 8u * (rc.z & 7u));
+  const uint word = pool_word(allocated ? entry : 0u, l >> 1);
+  const int value = bitfieldExtract(int(word), int((l & 1u) << 4), 16);
+  return allocated ? value : ((inside && entry == FREE_BLOCK) ? QUANT_MAX : UNKNOWN_VALUE);
 }
 
 float likelihood(float d) { return pc.hit_scale * exp(d * d * pc.neg_inv_2s2) + pc.p_rand; }
@@ -91,7 +100,9 @@ void main() {
     if (INTERPOLATION == 0u) {
       precise vec3 n = floor(vec3(gx, gy, gz) + 0.5);
       const int q = fetch(ivec3(n));
-      if (q == UNKNOWN_VALUE) {
+      if (USE_TABLE != 0u) {
+        v = table[q + 32768];
+      } else if (q == UNKNOWN_VALUE) {
         v = LIKELIHOOD == 0u ? pc.log_p_rand : pc.p_rand;
       } else {
         const float p_point = likelihood(float(q) * pc.quant_step);

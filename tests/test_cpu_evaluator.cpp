@@ -121,3 +121,33 @@ TEST(WeightReduction, MatchesDirectSumsAndIgnoresThreadCount) {
 
 }  // namespace
 }  // namespace tsdf_mcl
+
+namespace tsdf_mcl {
+namespace {
+
+// The AVX2 path (where the CPU has it) must give the scalar path's log-weights bit for bit.
+TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
+  const TsdfMap map = test::make_room_map(0.05f, 0.3f);
+  CpuEvaluator scalar(map, 2, false);
+  CpuEvaluator simd(map, 2, true);
+  std::mt19937 rng(21);
+  const std::size_t n = 1003;  // not a multiple of 8
+  scalar.reserve(n, 333);
+  simd.reserve(n, 333);
+  // Some particles far outside the map so lookups hit every kind of cell: outside, unknown, free, allocated.
+  test::random_particles(scalar.particles(), n, rng, Eigen::Vector3f(-6, -5, -2), Eigen::Vector3f(6, 5, 5));
+  for (std::size_t i = 0; i < n; ++i) simd.particles().set(i, scalar.particles().position(i), scalar.particles().rotation(i));
+  const auto scan = test::random_scan(333, rng, 8.0f);
+  scalar.set_points(scan);
+  simd.set_points(scan);
+  for (Likelihood form : {Likelihood::kProduct, Likelihood::kSum}) {
+    EndpointModel model;
+    model.likelihood = form;
+    scalar.evaluate(n, model, Eigen::Quaternionf::Identity());
+    simd.evaluate(n, model, Eigen::Quaternionf::Identity());
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(simd.particles().log_weight[i], scalar.particles().log_weight[i]) << i;
+  }
+}
+
+}  // namespace
+}  // namespace tsdf_mcl

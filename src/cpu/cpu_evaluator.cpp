@@ -6,6 +6,7 @@
 #include <chrono>
 #include <thread>
 
+#include "cpu/endpoint_avx2.hpp"
 #include "cpu/weight_reduction.hpp"
 #include "tsdf_mcl/error.hpp"
 
@@ -15,21 +16,19 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-bool same_model(const EndpointModel& a, const EndpointModel& b) {
-  return a.sigma_hit == b.sigma_hit && a.z_hit == b.z_hit && a.z_rand == b.z_rand && a.max_range == b.max_range &&
-         a.likelihood == b.likelihood;
-}
-
 }  // namespace
 
-CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads)
+CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads, bool use_simd)
     : map_(map),
       map_view_(map),
-      threads_(threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))) {
+      threads_(threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
+      use_avx2_(use_simd && kernel::avx2_available()) {
   if (map.empty()) throw Error("the map is empty");
 }
 
-std::string CpuEvaluator::device_name() const { return "CPU (" + std::to_string(threads_) + " threads)"; }
+std::string CpuEvaluator::device_name() const {
+  return "CPU (" + std::to_string(threads_) + " threads" + (use_avx2_ ? ", AVX2" : "") + ")";
+}
 
 void CpuEvaluator::reserve(std::size_t particles, std::size_t points) {
   if (particles > capacity_) {
@@ -76,18 +75,8 @@ void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
 }
 
 void CpuEvaluator::rebuild_tables(const EndpointModel& model) {
-  if (table_valid_ && same_model(model, table_model_)) return;
-  const kernel::ModelConstants k(model);
-  table_.resize(65536);
-  for (int q = -32768; q <= 32767; ++q) {
-    float v;
-    if (q == TsdfMap::kUnknownValue) {
-      v = k.p_rand;
-    } else {
-      v = k.likelihood(static_cast<float>(q) * map_view_.quant_step);
-    }
-    table_[static_cast<std::size_t>(q + 32768)] = model.likelihood == Likelihood::kProduct ? std::log(v) : v;
-  }
+  if (table_valid_ && kernel::same_table(model, table_model_)) return;
+  kernel::likelihood_table(model, map_view_.quant_step, table_);
   table_model_ = model;
   table_valid_ = true;
 }
@@ -108,6 +97,24 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
   const bool product = model.likelihood == Likelihood::kProduct;
   const bool trilinear = model.interpolation == Interpolation::kTrilinear;
   const float exponent = model.weight_exponent;
+
+  if (!trilinear && use_avx2_) {
+    // Groups of 8 particles per gather; chunks of 64 keep the threads' shares even.
+    constexpr std::size_t kChunk = 64;
+    const auto chunks = static_cast<std::ptrdiff_t>((n + kChunk - 1) / kChunk);
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+      const std::size_t begin = static_cast<std::size_t>(c) * kChunk;
+      const std::size_t end = std::min(n, begin + kChunk);
+      kernel::accumulate_nearest_avx2(map, table_.data(), p, begin, end, pts, point_count_, p.log_weight);
+      for (std::size_t i = begin; i < end; ++i) {
+        p.log_weight[i] = exponent * (product ? p.log_weight[i] : std::log(p.log_weight[i]));
+      }
+    }
+    const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
+    timings_.evaluate_ms = ms_since(t0);
+    return summary;
+  }
 
 #pragma omp parallel for num_threads(threads_) schedule(static)
   for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {

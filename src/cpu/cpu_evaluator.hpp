@@ -11,7 +11,8 @@ namespace tsdf_mcl {
 // tolerance; the reduction runs in double over a fixed chunking, so results do not depend on the thread count.
 class CpuEvaluator final : public SensorEvaluator {
  public:
-  CpuEvaluator(const TsdfMap& map, int threads);
+  // use_simd = false keeps to the scalar path (tests compare the two).
+  CpuEvaluator(const TsdfMap& map, int threads, bool use_simd = true);
 
   std::string backend() const override { return "cpu"; }
   std::string device_name() const override;
@@ -31,6 +32,7 @@ class CpuEvaluator final : public SensorEvaluator {
   const TsdfMap& map_;
   kernel::MapView map_view_;
   int threads_;
+  bool use_avx2_;
   std::size_t capacity_ = 0;
   std::vector<float> sets_[2];  // 8 arrays of capacity_ floats each: x y z qw qx qy qz log_weight
   int active_ = 0;

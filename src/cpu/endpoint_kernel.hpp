@@ -2,14 +2,30 @@
 // The per-point arithmetic of the sensor update, written once for the CPU evaluator in the same float
 // operations, in the same order, as shaders/endpoint_weight.comp, so that both land in the same voxel
 // (the library is built with -ffp-contract=off; the shader marks these lines `precise`).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "tsdf_mcl/endpoint_model.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
 #include "tsdf_mcl/tsdf_map.hpp"
 
 namespace tsdf_mcl::kernel {
+
+// Blocks that free (index 0) and unknown (index 1) coarse entries read from, so lookups need no branches.
+struct SentinelBlocks {
+  std::uint32_t words[2][TsdfMap::kWordsPerBlock];
+};
+constexpr SentinelBlocks make_sentinel_blocks() {
+  SentinelBlocks b{};
+  for (int w = 0; w < TsdfMap::kWordsPerBlock; ++w) {
+    b.words[0][w] = static_cast<std::uint32_t>(TsdfMap::kQuantMax) * 0x10001u;
+    b.words[1][w] = static_cast<std::uint32_t>(static_cast<std::uint16_t>(TsdfMap::kUnknownValue)) * 0x10001u;
+  }
+  return b;
+}
+inline constexpr SentinelBlocks kSentinelBlocks = make_sentinel_blocks();
 
 // Raw view of a TsdfMap's buffers, as the shader sees them.
 struct MapView {
@@ -33,19 +49,20 @@ struct MapView {
     }
   }
 
-  // Quantized value of voxel (ix, iy, iz), or kUnknownValue.
+  // Quantized value of voxel (ix, iy, iz), or kUnknownValue. Branch-free like the shader's fetch(): the
+  // sentinels point at two constant blocks, so the hot loop has no unpredictable branches.
   std::int32_t fetch(std::int32_t ix, std::int32_t iy, std::int32_t iz) const {
     // Unsigned wrap-around turns "below the box" into "beyond the box": one compare per axis.
     const std::uint32_t rx = static_cast<std::uint32_t>(ix - min_voxel[0]);
     const std::uint32_t ry = static_cast<std::uint32_t>(iy - min_voxel[1]);
     const std::uint32_t rz = static_cast<std::uint32_t>(iz - min_voxel[2]);
-    if (rx >= dims_voxels[0] || ry >= dims_voxels[1] || rz >= dims_voxels[2]) return TsdfMap::kUnknownValue;
-    const std::uint32_t cell = (rx >> 3) + dims_blocks[0] * ((ry >> 3) + dims_blocks[1] * (rz >> 3));
-    const std::uint32_t entry = coarse[cell];
-    if (entry >= TsdfMap::kFreeBlock) return entry == TsdfMap::kFreeBlock ? TsdfMap::kQuantMax : TsdfMap::kUnknownValue;
+    const bool inside = (rx < dims_voxels[0]) & (ry < dims_voxels[1]) & (rz < dims_voxels[2]);
+    const std::uint32_t cell = inside ? (rx >> 3) + dims_blocks[0] * ((ry >> 3) + dims_blocks[1] * (rz >> 3)) : 0u;
+    const std::uint32_t entry = inside ? coarse[cell] : TsdfMap::kUnknownBlock;
+    const std::uint32_t* block = entry >= TsdfMap::kFreeBlock ? kSentinelBlocks.words[entry - TsdfMap::kFreeBlock]
+                                                              : pool + static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock;
     const std::uint32_t l = (rx & 7u) + 8u * ((ry & 7u) + 8u * (rz & 7u));
-    const std::uint32_t word = pool[entry * static_cast<std::uint32_t>(TsdfMap::kWordsPerBlock) + (l >> 1)];
-    return static_cast<std::int16_t>(static_cast<std::uint16_t>((l & 1u) ? (word >> 16) : (word & 0xFFFFu)));
+    return static_cast<std::int16_t>(static_cast<std::uint16_t>(block[l >> 1] >> ((l & 1u) << 4)));
   }
 };
 
@@ -73,17 +90,23 @@ inline void to_grid(const float r[9], const float t[3], float inv_voxel, float p
   }
 }
 
+// floor() as an integer without a libm call (baseline x86-64 has no rounding instruction); equal to the shader's
+// floor for every grid coordinate a map can hold (|v| < 2^30, clamped beyond: outside every map anyway).
+inline std::int32_t floor_int(float v) {
+  v = std::min(std::max(v, -1.0e9f), 1.0e9f);
+  const auto i = static_cast<std::int32_t>(v);
+  return i - (v < static_cast<float>(i) ? 1 : 0);
+}
+
 // Nearest-voxel sample: quantized value at the voxel whose centre is closest.
 inline std::int32_t sample_nearest(const MapView& map, const float g[3]) {
-  return map.fetch(static_cast<std::int32_t>(std::floor(g[0] + 0.5f)), static_cast<std::int32_t>(std::floor(g[1] + 0.5f)),
-                   static_cast<std::int32_t>(std::floor(g[2] + 0.5f)));
+  return map.fetch(floor_int(g[0] + 0.5f), floor_int(g[1] + 0.5f), floor_int(g[2] + 0.5f));
 }
 
 // Trilinear sample renormalized over known corners (TsdfMap::trilinear): returns false if unknown.
 inline bool sample_trilinear(const MapView& map, const float g[3], float* distance) {
-  const float bx = std::floor(g[0]), by = std::floor(g[1]), bz = std::floor(g[2]);
-  const float fx = g[0] - bx, fy = g[1] - by, fz = g[2] - bz;
-  const auto ix = static_cast<std::int32_t>(bx), iy = static_cast<std::int32_t>(by), iz = static_cast<std::int32_t>(bz);
+  const std::int32_t ix = floor_int(g[0]), iy = floor_int(g[1]), iz = floor_int(g[2]);
+  const float fx = g[0] - static_cast<float>(ix), fy = g[1] - static_cast<float>(iy), fz = g[2] - static_cast<float>(iz);
   float weight = 0.0f;
   float sum = 0.0f;
   for (int corner = 0; corner < 8; ++corner) {
@@ -112,5 +135,24 @@ struct ModelConstants {
         log_p_rand(static_cast<float>(std::log(m.p_rand()))) {}
   float likelihood(float d) const { return hit_scale * std::exp(d * d * neg_inv_2s2) + p_rand; }
 };
+
+constexpr std::size_t kTableSize = 65536;  // one entry per int16 quantized distance, index q + 32768
+
+// Per quantized distance: log p (product form) or p (sum form), the unknown value included. Nearest lookups on
+// the CPU, and on CPU-like Vulkan devices, read this table instead of computing exp and log per point.
+inline void likelihood_table(const EndpointModel& model, float quant_step, std::vector<float>& table) {
+  const ModelConstants k(model);
+  table.resize(kTableSize);
+  for (int q = -32768; q <= 32767; ++q) {
+    const float p = q == TsdfMap::kUnknownValue ? k.p_rand : k.likelihood(static_cast<float>(q) * quant_step);
+    table[static_cast<std::size_t>(q + 32768)] = model.likelihood == Likelihood::kProduct ? std::log(p) : p;
+  }
+}
+
+// Whether two models give the same table (the exponent and interpolation are applied elsewhere).
+inline bool same_table(const EndpointModel& a, const EndpointModel& b) {
+  return a.sigma_hit == b.sigma_hit && a.z_hit == b.z_hit && a.z_rand == b.z_rand && a.max_range == b.max_range &&
+         a.likelihood == b.likelihood;
+}
 
 }  // namespace tsdf_mcl::kernel
