@@ -41,6 +41,8 @@ void FilterParameters::validate() const {
   motion.validate();
   if (!(update_min_d >= 0.0) || !std::isfinite(update_min_d)) throw Error("update_min_d must not be negative");
   if (!(update_min_a >= 0.0) || !std::isfinite(update_min_a)) throw Error("update_min_a must not be negative");
+  if (!(roughening_xyz >= 0.0) || !std::isfinite(roughening_xyz)) throw Error("roughening_xyz must not be negative");
+  if (!(roughening_angle >= 0.0) || !std::isfinite(roughening_angle)) throw Error("roughening_angle must not be negative");
   global_init.validate();
   local_init.validate();
   estimate.validate();
@@ -201,8 +203,9 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
       case MotionModelType::kDiffusion:
         break;
     }
-    // The gate needs measured motion: with a predicted one it could hold a filter still forever.
-    if (use_odometry) {
+    // The gate needs measured motion: with a predicted one it could hold a filter still forever. Before the
+    // first convergence it stays open: a global belief gains from every scan (see roughening).
+    if (use_odometry && ever_converged_) {
       moved = delta.translation().norm() >= params_.update_min_d ||
               Eigen::AngleAxisd(delta.linear()).angle() >= params_.update_min_a;
     }
@@ -219,7 +222,17 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
 
   auto t0 = Clock::now();
   if (has_update_) {
-    const MotionNoise noise = motion_noise(params_.motion, delta, time - last_time_);
+    MotionNoise noise = motion_noise(params_.motion, delta, time - last_time_);
+    if (!ever_converged_) {
+      const auto rt = static_cast<float>(params_.roughening_xyz);
+      const auto ra = static_cast<float>(params_.roughening_angle);
+      noise.sigma_along = std::hypot(noise.sigma_along, rt);
+      noise.sigma_across = std::hypot(noise.sigma_across, rt);
+      noise.sigma_vertical = std::hypot(noise.sigma_vertical, rt);
+      noise.sigma_roll = std::hypot(noise.sigma_roll, ra);
+      noise.sigma_pitch = std::hypot(noise.sigma_pitch, ra);
+      noise.sigma_yaw = std::hypot(noise.sigma_yaw, ra);
+    }
     apply_motion(evaluator_.particles(), n, delta, noise, params_.seed, step_);
   }
   step.timings.motion_ms = ms_since(t0);

@@ -106,6 +106,8 @@ std::vector<OptionSpec> localize_options() {
       {"diffusion_roll_pitch", "RAD", num(f.motion.diffusion_roll_pitch), ""},
       {"update_min_d", "M", num(f.update_min_d), "filter update only after this much translation (odometry model)"},
       {"update_min_a", "RAD", num(f.update_min_a), "... or this much rotation"},
+      {"roughening_xyz", "M", num(f.roughening_xyz), "until the first convergence: extra random walk per update and axis (the motion gate stays open until then)"},
+      {"roughening_angle", "RAD", num(f.roughening_angle), "... and per rotation axis"},
       // Initialization.
       {"init_max_tilt", "RAD", num(f.global_init.max_tilt), "global init: sensor z axis within this angle of the world's (gravity known); pi = any rotation"},
       {"init_height_band", "MIN,MAX", "", "global init: sensor height above the floor below it (ground robot), e.g. 0.3,1.5"},
@@ -223,6 +225,8 @@ FilterParameters filter_parameters(const Options& o) {
   f.motion.diffusion_roll_pitch = o.number("diffusion_roll_pitch");
   f.update_min_d = o.number("update_min_d");
   f.update_min_a = o.number("update_min_a");
+  f.roughening_xyz = o.number("roughening_xyz");
+  f.roughening_angle = o.number("roughening_angle");
 
   f.global_init.max_tilt = o.number("init_max_tilt");
   if (o.maybe("init_height_band")) {
@@ -308,27 +312,15 @@ nlohmann::json parameters_json(const Options& o) {
   return j;
 }
 
-std::vector<std::string> with_output_alias(int argc, char** argv) {
-  std::vector<std::string> args(argv, argv + argc);
-  for (auto& a : args) {
-    if (a == "-o") a = "--output";
-  }
-  return args;
-}
-
 }  // namespace
 
 int run_localize(int argc, char** argv) {
-  // "-o DIR" is the command-line contract's short form of --output.
-  std::vector<std::string> args = with_output_alias(argc, argv);
-  std::vector<char*> arg_ptrs;
-  for (auto& a : args) arg_ptrs.push_back(a.data());
   Options o("localize",
             "tsdf-mcl localize --map MAP --dataset DIR [--start S --stride K --count N] [--particles N]\n"
             "                       [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--backend auto|vulkan|cpu] [--seed N]\n"
             "                       [--config FILE] [filter parameters] -o OUT\n"
             "Writes OUT/trajectory.tum (one line per scan, world_T_sensor) and OUT/report.json. Angles in radians.",
-            localize_options(), argc, arg_ptrs.data(), 2);
+            localize_options(), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
