@@ -34,6 +34,8 @@ struct LinePlot {
 
 // Throws Error if the file cannot be written or the plot has no finite data.
 void write_plot_png(const LinePlot& plot, const std::filesystem::path& file);
+// Several plots of the same width stacked top to bottom in one image.
+void write_plots_png(const std::vector<LinePlot>& plots, const std::filesystem::path& file);
 
 // The rendered image (RGB, row-major, width*height*3 bytes), for tests.
 std::vector<std::uint8_t> render_plot(const LinePlot& plot);

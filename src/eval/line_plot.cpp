@@ -258,9 +258,20 @@ std::vector<std::uint8_t> render_plot(const LinePlot& plot) {
   return c.take();
 }
 
-void write_plot_png(const LinePlot& plot, const std::filesystem::path& file) {
-  const std::vector<std::uint8_t> rgb = render_plot(plot);
-  if (!stbi_write_png(file.c_str(), plot.width, plot.height, 3, rgb.data(), plot.width * 3)) {
+void write_plot_png(const LinePlot& plot, const std::filesystem::path& file) { write_plots_png({plot}, file); }
+
+void write_plots_png(const std::vector<LinePlot>& plots, const std::filesystem::path& file) {
+  if (plots.empty()) throw Error("plot: nothing to draw");
+  std::vector<std::uint8_t> rgb;
+  int height = 0;
+  for (const LinePlot& plot : plots) {
+    if (plot.width != plots.front().width) throw Error("plot: stacked plots need the same width");
+    const std::vector<std::uint8_t> panel = render_plot(plot);
+    rgb.insert(rgb.end(), panel.begin(), panel.end());
+    height += plot.height;
+  }
+  const int width = plots.front().width;
+  if (!stbi_write_png(file.c_str(), width, height, 3, rgb.data(), width * 3)) {
     throw Error("cannot write plot " + file.string());
   }
 }

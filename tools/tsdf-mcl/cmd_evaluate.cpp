@@ -16,10 +16,11 @@ namespace {
 
 constexpr double kDeg = 57.29577951308232;
 
-// Translation error per axis over time, as in the paper's figures.
-void plot_errors(const TrajectoryMetrics& m, const std::string& file) {
+// Translation error per axis over time, as in the paper's figures; a second panel zooms in on the errors
+// after convergence, which the initial error of a global localization would otherwise flatten.
+LinePlot error_plot(const TrajectoryMetrics& m, std::size_t first, const std::string& title) {
   LinePlot plot;
-  plot.title = "translation error per axis";
+  plot.title = title;
   plot.x_label = "time [s]";
   plot.y_label = "error [m]";
   const Rgb colors[4] = {{214, 39, 40}, {44, 160, 44}, {31, 119, 180}, {40, 40, 40}};
@@ -28,14 +29,23 @@ void plot_errors(const TrajectoryMetrics& m, const std::string& file) {
     PlotSeries s;
     s.label = labels[a];
     s.color = colors[a];
-    for (const PoseError& e : m.errors) {
+    for (std::size_t i = first; i < m.errors.size(); ++i) {
+      const PoseError& e = m.errors[i];
       s.x.push_back(e.time - m.errors.front().time);
       s.y.push_back(a < 3 ? e.translation[a] : e.translation_norm);
     }
     plot.series.push_back(std::move(s));
   }
-  if (m.converged) plot.markers.emplace_back(m.convergence_time, "converged");
-  write_plot_png(plot, file);
+  return plot;
+}
+
+void plot_errors(const TrajectoryMetrics& m, const std::string& file) {
+  std::vector<LinePlot> panels = {error_plot(m, 0, "translation error per axis")};
+  if (m.converged) {
+    panels.front().markers.emplace_back(m.convergence_time, "converged");
+    panels.push_back(error_plot(m, m.convergence_index, "after convergence"));
+  }
+  write_plots_png(panels, file);
 }
 
 }  // namespace

@@ -348,6 +348,14 @@ int run_localize(int argc, char** argv) {
     throw Error("localize: dataset " + dataset.dir().string() +
                 " has no odom.txt, which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
   }
+  // Empty scan files are caught before any work starts; scans whose points are all NaN or out of range can
+  // only be found while reading them.
+  for (std::size_t idx : scans) {
+    std::error_code size_error;
+    if (fs::file_size(dataset.scan_path(idx), size_error) == 0 && !size_error) {
+      throw Error(dataset.scan_path(idx).string() + ": empty scan file");
+    }
+  }
   const TsdfMap map = load_map(map_file);
   EvaluatorOptions eo;
   eo.backend = parse_backend(o.text("backend"));

@@ -1,0 +1,256 @@
+// The localize and evaluate commands end to end on a small synthetic dataset, and their answers to bad input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "filter_test_scene.hpp"
+#include "map_test_helpers.hpp"
+#include "tsdf_mcl/dataset.hpp"
+#include "tsdf_mcl/map_io.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+using test::TempDir;
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+CliResult run_cli(const TempDir& dir, const std::string& args) {
+  const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string command = std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(command.c_str());
+  CliResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = test::read_bytes(out);
+  r.err = test::read_bytes(err);
+  return r;
+}
+
+std::string last_line(const std::string& text) {
+  std::string s = text;
+  while (!s.empty() && s.back() == '\n') s.pop_back();
+  const auto nl = s.rfind('\n');
+  return nl == std::string::npos ? s : s.substr(nl + 1);
+}
+
+// Up-front errors: non-zero exit and exactly one line on stderr naming the problem.
+void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {
+  const CliResult r = run_cli(dir, args);
+  EXPECT_NE(r.exit_code, 0) << args;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << "\n" << r.err;
+  EXPECT_NE(r.err.find(words), std::string::npos) << args << ": '" << r.err << "' lacks '" << words << "'";
+}
+
+// Errors found while scans are processed come after the progress lines: the last line names them.
+void expect_error_last(const TempDir& dir, const std::string& args, const std::string& words) {
+  const CliResult r = run_cli(dir, args);
+  EXPECT_NE(r.exit_code, 0) << args;
+  EXPECT_NE(last_line(r.err).find(words), std::string::npos) << args << ": '" << last_line(r.err) << "' lacks '" << words << "'";
+  EXPECT_NE(last_line(r.err).find("error"), std::string::npos) << r.err;
+}
+
+constexpr double kT0 = 1630577758.569490;  // unix time: needs all digits of %.9f
+
+// The office scene as a dataset: `n` scans along the test trajectory, ground truth and drifting odometry.
+void write_office_dataset(const std::filesystem::path& dir, std::size_t n) {
+  const std::vector<test::Box> boxes = test::office_boxes();
+  const std::vector<Pose> truth = test::office_trajectory(n);
+  const std::vector<Pose> odom = test::drifting_odometry(truth, 5);
+  Rng rng(3);
+  DatasetWriter writer(dir);
+  for (std::size_t i = 0; i < n; ++i) {
+    PointCloud cloud;
+    cloud.points = test::simulate_scan(boxes, truth[i], rng);
+    writer.add(kT0 + 0.5 * static_cast<double>(i), cloud, truth[i], odom[i]);
+  }
+  writer.close();
+}
+
+// Built once: the office map file and a 24-scan dataset.
+struct Fixture {
+  TempDir dir;
+  std::string map, dataset;
+  Fixture() {
+    map = (dir / "office.tsdf").string();
+    dataset = (dir / "office").string();
+    save_map(test::make_office_map(), map);
+    write_office_dataset(dataset, 24);
+  }
+};
+
+const Fixture& fixture() {
+  static const Fixture f;
+  return f;
+}
+
+const std::string kGroundRobot =
+    " --backend cpu --particles 20000 --max_particles 20000 --min_particles 300 --init_max_tilt 0.1"
+    " --init_height_band 0.6,1.2 --max_beams 256 --update_min_d 0 --update_min_a 0";
+
+TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string o = (out / "run").string();
+  const CliResult r = run_cli(out, "localize --map " + f.map + " --dataset " + f.dataset + kGroundRobot + " -o " + o);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("[24/24] scan 23"), std::string::npos) << "progress on stderr";
+
+  // One TUM line per scan, stamped with times.txt to the nanosecond.
+  std::istringstream tum(test::read_bytes(out / "run/trajectory.tum"));
+  std::size_t lines = 0;
+  for (std::string line; std::getline(tum, line); ++lines) {
+    char expected[32];
+    std::snprintf(expected, sizeof(expected), "%.9f ", kT0 + 0.5 * static_cast<double>(lines));
+    EXPECT_EQ(line.rfind(expected, 0), 0u) << line;
+  }
+  EXPECT_EQ(lines, 24u);
+
+  const auto report = nlohmann::json::parse(test::read_bytes(out / "run/report.json"));
+  EXPECT_EQ(report["backend"], "cpu");
+  EXPECT_EQ(report["parameters"]["max_beams"], 256);
+  EXPECT_EQ(report["parameters"]["resample_method"], "systematic");
+  EXPECT_EQ(report["scans"].size(), 24u);
+  const auto& first = report["scans"][0];
+  for (const char* key : {"motion", "upload", "weight", "reduce_host", "resample", "update_total"}) {
+    EXPECT_TRUE(first["timings_ms"].contains(key)) << key;
+  }
+  EXPECT_EQ(first["particles"], 20000);
+  EXPECT_TRUE(report["summary"]["final_converged"].get<bool>());
+  EXPECT_LE(report["summary"]["particles"]["final"].get<int>(), 2000);
+
+  const CliResult e = run_cli(out, "evaluate --estimate " + o + "/trajectory.tum --dataset " + f.dataset + " --plot " + o + "/errors.png");
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const auto metrics = nlohmann::json::parse(e.out);
+  EXPECT_TRUE(metrics["converged"].get<bool>());
+  EXPECT_LE(metrics["convergence"]["scan"].get<int>(), 8);
+  EXPECT_LT(metrics["after_convergence"]["ate_rmse_m"].get<double>(), 0.1);
+  EXPECT_LT(metrics["after_convergence"]["rotation_rmse_deg"].get<double>(), 2.0);
+  EXPECT_EQ(test::read_bytes(out / "run/errors.png").substr(1, 3), "PNG");
+}
+
+// Parameters from a YAML or JSON file (nested keys join with '.'); flags win over the file.
+TEST(CliLocalize, ConfigFileAndFlagPrecedence) {
+  const Fixture& f = fixture();
+  TempDir out;
+  test::write_bytes(out / "params.yaml",
+                    "max_beams: 128\nresample_method: residual\ninit: initial_pose\n"
+                    "initial_pose:\n  x: 2.0\n  y: 1.2\n  z: 0.9\n");
+  const std::string common = "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --count 3 --particles 500";
+  CliResult r = run_cli(out, common + " --config " + (out / "params.yaml").string() + " -o " + (out / "a").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto report = nlohmann::json::parse(test::read_bytes(out / "a/report.json"));
+  EXPECT_EQ(report["parameters"]["max_beams"], 128);
+  EXPECT_EQ(report["parameters"]["resample_method"], "residual");
+  EXPECT_EQ(report["initialization"]["mode"], "local");
+  EXPECT_EQ(report["parameters"]["initial_pose.x"], 2.0);
+
+  test::write_bytes(out / "params.json", R"({"max_beams": 128, "pf_z": 2.33})");
+  r = run_cli(out, common + " --config " + (out / "params.json").string() + " --max_beams 64 -o " + (out / "b").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  report = nlohmann::json::parse(test::read_bytes(out / "b/report.json"));
+  EXPECT_EQ(report["parameters"]["max_beams"], 64);
+  EXPECT_EQ(report["parameters"]["pf_z"], 2.33);
+
+  test::write_bytes(out / "bad.yaml", "max_beams: 128\npf_zz: 3\n");
+  expect_one_line_error(out, common + " --config " + (out / "bad.yaml").string() + " -o " + (out / "c").string(),
+                        "unknown parameter 'pf_zz'");
+  test::write_bytes(out / "broken.yaml", "max_beams: [1, 2\n");
+  expect_one_line_error(out, common + " --config " + (out / "broken.yaml").string() + " -o " + (out / "c").string(),
+                        "not valid YAML");
+}
+
+TEST(CliLocalize, HelpListsEveryOptionWithItsDefault) {
+  TempDir out;
+  const CliResult r = run_cli(out, "localize --help");
+  ASSERT_EQ(r.exit_code, 0);
+  for (const char* s : {"--max_beams N", "[default: 512]", "--pf_z Z", "standard-normal quantile", "--recovery_alpha_slow",
+                        "--alpha8", "--init_height_band", "--config FILE"}) {
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  }
+}
+
+TEST(CliLocalize, BadInputGivesOneClearError) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string o = " -o " + (out / "run").string();
+  const std::string base = "localize --map " + f.map + " --backend cpu --particles 200";
+
+  // A dataset without odom.txt under the default odometry motion model.
+  const std::filesystem::path no_odom = out / "no_odom";
+  std::filesystem::copy(f.dataset, no_odom, std::filesystem::copy_options::recursive);
+  std::filesystem::remove(no_odom / "odom.txt");
+  expect_one_line_error(out, base + " --dataset " + no_odom.string() + o, "has no odom.txt");
+  // ... which the constant-velocity model does not need.
+  EXPECT_EQ(run_cli(out, base + " --dataset " + no_odom.string() + " --count 2 --motion_model constant_velocity" + o).exit_code, 0);
+
+  // times.txt and poses.txt disagree.
+  const std::filesystem::path mismatched = out / "mismatched";
+  std::filesystem::copy(f.dataset, mismatched, std::filesystem::copy_options::recursive);
+  std::string poses = test::read_bytes(mismatched / "poses.txt");
+  poses.erase(poses.rfind('\n', poses.size() - 2) + 1);  // drop the last line
+  test::write_bytes(mismatched / "poses.txt", poses);
+  expect_one_line_error(out, base + " --dataset " + mismatched.string() + o, "lines in poses.txt");
+
+  // An empty scan file.
+  const std::filesystem::path empty = out / "empty";
+  std::filesystem::copy(f.dataset, empty, std::filesystem::copy_options::recursive);
+  test::write_bytes(empty / "scans/000002.bin", "");
+  expect_one_line_error(out, base + " --dataset " + empty.string() + o, "000002.bin: empty scan file");
+
+  // NaN points are dropped and counted; a scan of nothing but NaN is an error.
+  const std::filesystem::path nan = out / "nan";
+  std::filesystem::copy(f.dataset, nan, std::filesystem::copy_options::recursive);
+  PointCloud scan = read_kitti_bin(nan / "scans/000001.bin");
+  for (std::size_t k = 0; k < scan.size(); k += 10) scan.points[k].x() = std::nanf("");
+  write_kitti_bin(nan / "scans/000001.bin", scan);
+  const CliResult ok = run_cli(out, base + " --dataset " + nan.string() + " --count 3" + o);
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.err.find("dropped"), std::string::npos);
+  const auto report = nlohmann::json::parse(test::read_bytes(out / "run/report.json"));
+  EXPECT_EQ(report["summary"]["dropped_non_finite_points"].get<std::size_t>(), (scan.size() + 9) / 10);
+  for (auto& p : scan.points) p.y() = std::nanf("");
+  write_kitti_bin(nan / "scans/000001.bin", scan);
+  expect_error_last(out, base + " --dataset " + nan.string() + " --count 3" + o, "000001.bin: no finite points");
+
+  // Every point closer than laser_min_range.
+  expect_error_last(out, base + " --dataset " + f.dataset + " --laser_min_range 50 --laser_max_range 60" + o,
+                    "none of");
+
+  // A map that is not a map, unknown options and values.
+  test::write_bytes(out / "not_a_map.tsdf", "hello, I am a text file\n");
+  expect_one_line_error(out, "localize --map " + (out / "not_a_map.tsdf").string() + " --dataset " + f.dataset + o,
+                        "not_a_map.tsdf");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --max_beam 5" + o, "unknown option --max_beam");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --pf_err abc" + o, "--pf_err expects a number");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --resample_method lucky" + o, "resample_method");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --init 1,2,3" + o, "--init expects");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --start 99" + o, "selects no scan");
+  expect_one_line_error(out, base + " --dataset " + f.dataset, "missing -o");
+}
+
+TEST(CliEvaluate, BadInputGivesOneClearError) {
+  const Fixture& f = fixture();
+  TempDir out;
+  test::write_bytes(out / "late.tum", "1630577999.0 0 0 0 0 0 0 1\n");
+  expect_one_line_error(out, "evaluate --estimate " + (out / "late.tum").string() + " --dataset " + f.dataset,
+                        "no ground-truth pose within");
+  test::write_bytes(out / "garbage.tum", "1630577758.569490 0 0 zero\n");
+  expect_one_line_error(out, "evaluate --estimate " + (out / "garbage.tum").string() + " --dataset " + f.dataset,
+                        "garbage.tum:1");
+  const std::filesystem::path no_truth = out / "no_truth";
+  std::filesystem::copy(f.dataset, no_truth, std::filesystem::copy_options::recursive);
+  std::filesystem::remove(no_truth / "poses.txt");
+  expect_one_line_error(out, "evaluate --estimate " + (out / "late.tum").string() + " --dataset " + no_truth.string(),
+                        "has no poses.txt");
+}
+
+}  // namespace
+}  // namespace tsdf_mcl

@@ -1,0 +1,123 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <vector>
+
+#include "map_test_helpers.hpp"
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/line_plot.hpp"
+#include "tsdf_mcl/trajectory_metrics.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+struct Truth {
+  std::vector<double> times;
+  std::vector<Pose> poses;
+};
+
+Truth straight_line(std::size_t n) {
+  Truth t;
+  for (std::size_t i = 0; i < n; ++i) {
+    t.times.push_back(1630577758.5 + 0.5 * static_cast<double>(i));
+    t.poses.push_back(pose_from_xyz_rpy(0.3 * static_cast<double>(i), 1.0, 0.5, 0.0, 0.0, 0.1 * static_cast<double>(i)));
+  }
+  return t;
+}
+
+TEST(TrajectoryMetrics, ConvergenceLocalizedShareAndErrorsAfterConvergence) {
+  const Truth t = straight_line(20);
+  std::vector<StampedPose> est;
+  for (std::size_t i = 0; i < 20; ++i) {
+    Pose p = t.poses[i];
+    if (i < 5) p.translation() += Eigen::Vector3d(2.0, 0, 0);   // lost at first
+    else if (i == 7) p.translation() += Eigen::Vector3d(0, 0.2, 0);  // within 0.3 m: still localized
+    else p.translation() += Eigen::Vector3d(0, 0.05, 0);
+    if (i == 9) p.linear() = p.linear() * Eigen::AngleAxisd(0.07, Eigen::Vector3d::UnitX()).toRotationMatrix();  // 4°
+    est.push_back({t.times[i], p});
+  }
+  const TrajectoryMetrics m = evaluate_trajectory(est, t.times, t.poses);
+  ASSERT_TRUE(m.converged);
+  EXPECT_EQ(m.convergence_index, 5u);
+  EXPECT_NEAR(m.convergence_time, 2.5, 1e-9);
+  EXPECT_NEAR(m.localized_fraction, 15.0 / 20.0, 1e-12);
+  EXPECT_EQ(m.converged_count, 15u);
+  EXPECT_NEAR(m.ate_rmse, std::sqrt((14 * 0.05 * 0.05 + 0.2 * 0.2) / 15.0), 1e-9);
+  EXPECT_NEAR(m.rotation_rmse, std::sqrt(0.07 * 0.07 / 15.0), 1e-9);
+  EXPECT_NEAR(m.max_translation_error, 0.2, 1e-9);
+  EXPECT_NEAR(m.errors[0].translation.x(), 2.0, 1e-9);
+
+  // A late failure moves the convergence point behind it.
+  est[15].pose.linear() = est[15].pose.linear() * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();  // 5.7°
+  const TrajectoryMetrics late = evaluate_trajectory(est, t.times, t.poses);
+  EXPECT_EQ(late.convergence_index, 16u);
+  // Never localized at the end: not converged.
+  est.back().pose.translation() += Eigen::Vector3d(1, 0, 0);
+  const TrajectoryMetrics never = evaluate_trajectory(est, t.times, t.poses);
+  EXPECT_FALSE(never.converged);
+  EXPECT_EQ(never.ate_rmse, 0.0);
+}
+
+TEST(TrajectoryMetrics, MatchesTimestampsExactlyOrNearestWithinTolerance) {
+  const Truth t = straight_line(10);
+  std::vector<StampedPose> est = {{t.times[3] + 1e-7, t.poses[3]}, {t.times[6] - 0.01, t.poses[6]}};
+  const TrajectoryMetrics m = evaluate_trajectory(est, t.times, t.poses);
+  EXPECT_EQ(m.errors[0].truth_index, 3u);
+  EXPECT_EQ(m.errors[1].truth_index, 6u);
+  EXPECT_NEAR(m.errors[1].translation_norm, 0.0, 1e-12);
+  est.push_back({t.times[8] + 0.2, t.poses[8]});  // between two scans, beyond the tolerance
+  EXPECT_THROW(evaluate_trajectory(est, t.times, t.poses), Error);
+  EXPECT_THROW(evaluate_trajectory({}, t.times, t.poses), Error);
+  EXPECT_THROW(evaluate_trajectory(est, t.times, {}), Error);
+}
+
+TEST(LinePlot, NiceTicks) {
+  EXPECT_EQ(nice_ticks(0.0, 10.0, 5), (std::vector<double>{0, 2, 4, 6, 8, 10}));
+  const std::vector<double> t = nice_ticks(-0.33, 0.71, 6);
+  ASSERT_GE(t.size(), 4u);
+  EXPECT_NEAR(t[1] - t[0], 0.2, 1e-12);
+  EXPECT_GE(t.front(), -0.33);
+  EXPECT_LE(t.back(), 0.71);
+}
+
+// The plot draws every series in its colour (lines and legend) and writes a PNG.
+TEST(LinePlot, DrawsSeriesAndWritesPng) {
+  LinePlot plot;
+  plot.title = "translation error per axis";
+  plot.x_label = "time [s]";
+  plot.y_label = "error [m]";
+  const Rgb red{214, 39, 40}, blue{31, 119, 180};
+  PlotSeries a{"x", red, {}, {}}, b{"z", blue, {}, {}};
+  for (int i = 0; i < 50; ++i) {
+    a.x.push_back(i);
+    a.y.push_back(0.1 * std::sin(0.2 * i));
+    b.x.push_back(i);
+    b.y.push_back(0.05 * i - 1.0);
+  }
+  plot.series = {a, b};
+  plot.markers.emplace_back(12.0, "converged");
+  const std::vector<std::uint8_t> rgb = render_plot(plot);
+  ASSERT_EQ(rgb.size(), static_cast<std::size_t>(plot.width * plot.height * 3));
+  auto count = [&](const Rgb& c) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < rgb.size(); i += 3) n += rgb[i] == c[0] && rgb[i + 1] == c[1] && rgb[i + 2] == c[2];
+    return n;
+  };
+  EXPECT_GT(count(red), 300u);
+  EXPECT_GT(count(blue), 300u);
+  EXPECT_GT(count(Rgb{0, 0, 0}), 2000u);  // axes, ticks, text
+
+  test::TempDir dir;
+  write_plot_png(plot, dir / "plot.png");
+  const std::string png = test::read_bytes(dir / "plot.png");
+  ASSERT_GT(png.size(), 1000u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+
+  plot.series[0].y.pop_back();
+  EXPECT_THROW(render_plot(plot), Error);
+  EXPECT_THROW(write_plot_png(LinePlot{}, dir / "empty.png"), Error);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl
