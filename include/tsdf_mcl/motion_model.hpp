@@ -71,6 +71,9 @@ struct MotionNoise {
 // constant-velocity and diffusion models).
 MotionNoise motion_noise(const MotionParameters& params, const Pose& delta, double dt);
 
+// Below this many particles the per-particle loops run on the calling thread.
+inline constexpr std::size_t kParallelParticles = 8192;
+
 // particle <- particle * (delta with noise), for particles 0..n-1, in place. Each particle draws from its own
 // stream Rng(seed, step, i), so the result does not depend on the thread count.
 void apply_motion(const ParticleArrays& particles, std::size_t n, const Pose& delta, const MotionNoise& noise,

@@ -96,7 +96,8 @@ void apply_motion(const ParticleArrays& p, std::size_t n, const Pose& delta, con
                   std::uint64_t seed, std::uint64_t step) {
   const Eigen::Vector3f dt = delta.translation().cast<float>();
   const Eigen::Quaternionf dq(Eigen::Quaterniond(delta.linear()).cast<float>());
-#pragma omp parallel for schedule(static)
+  // Small (converged) sets are done before a thread team would even wake up.
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
   for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
     const auto i = static_cast<std::size_t>(k);
     Rng rng(seed, 0x40710Aull, step, i);

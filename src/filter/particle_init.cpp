@@ -153,7 +153,7 @@ Eigen::Quaternionf FreeSpaceSampler::sample_rotation(Rng& rng) const {
 
 void FreeSpaceSampler::sample(const ParticleArrays& p, std::size_t begin, std::size_t end, std::uint64_t seed,
                               std::uint64_t step) const {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (end - begin >= kParallelParticles)
   for (std::ptrdiff_t k = static_cast<std::ptrdiff_t>(begin); k < static_cast<std::ptrdiff_t>(end); ++k) {
     const auto i = static_cast<std::size_t>(k);
     Rng rng(seed, 0x61080Bull, step, i);
@@ -167,7 +167,7 @@ void sample_local(const ParticleArrays& p, std::size_t n, const Pose& mean, cons
   s.validate();
   const Eigen::Vector3f t = mean.translation().cast<float>();
   const Eigen::Quaternionf q(Eigen::Quaterniond(mean.linear()).cast<float>());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
   for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
     const auto i = static_cast<std::size_t>(k);
     Rng rng(seed, 0x10CA1ull, step, i);
