@@ -6,6 +6,8 @@
 #include <string>
 
 #include "map_test_helpers.hpp"
+#include "tsdf_mcl/dataset.hpp"
+#include "tsdf_mcl/map_io.hpp"
 
 using tsdf_mcl::test::read_bytes;
 using tsdf_mcl::test::TempDir;
@@ -70,6 +72,35 @@ TEST(CliMap, InfoRejectsBadInput) {
   expect_one_line_error(dir, "info " + d + "/missing.tsdf", "does not exist");
   tsdf_mcl::test::write_bytes(dir / "junk.tsdf", "not a map at all");
   expect_one_line_error(dir, "info " + d + "/junk.tsdf", "not a tsdf-mcl map");
+  tsdf_mcl::TsdfMap map = tsdf_mcl::TsdfMap::covering(0.1f, 0.3f, {0, 0, 0}, {2, 2, 2});
+  map.set_distance({3, 4, 5}, 0.1f);
+  tsdf_mcl::save_map(map, dir / "good.tsdf");
+  std::string bytes = read_bytes(dir / "good.tsdf");
+  bytes[bytes.size() - 100] = static_cast<char>(bytes[bytes.size() - 100] ^ 1);
+  tsdf_mcl::test::write_bytes(dir / "corrupt.tsdf", bytes);
+  expect_one_line_error(dir, "info " + d + "/corrupt.tsdf", "checksum mismatch");
+  expect_one_line_error(dir, "info " + d + "/good.tsdf " + d + "/good.tsdf", "expected one map file");
+}
+
+TEST(CliMap, BuildMapRejectsUnusableDatasets) {
+  TempDir dir;
+  const std::string d = "'" + dir.path().string() + "'";
+  {
+    tsdf_mcl::DatasetWriter writer(dir / "noposes");
+    tsdf_mcl::PointCloud cloud;
+    cloud.points = {{1, 0, 0}, {0, 1, 0}};
+    writer.add(0.0, cloud, std::nullopt, std::nullopt);
+  }
+  expect_one_line_error(dir, "build-map --dataset " + d + "/noposes -o " + d + "/m.tsdf", "has no poses.txt");
+  {
+    tsdf_mcl::DatasetWriter writer(dir / "one");
+    tsdf_mcl::PointCloud cloud;
+    cloud.points = {{1, 0, 0}, {0, 1, 0}};
+    writer.add(0.0, cloud, tsdf_mcl::Pose::Identity(), std::nullopt);
+  }
+  expect_one_line_error(dir, "build-map --dataset " + d + "/one --start 3 -o " + d + "/m.tsdf", "selects none");
+  expect_one_line_error(dir, "build-map --dataset " + d + "/one --stride 0 -o " + d + "/m.tsdf", "--stride");
+  expect_one_line_error(dir, "build-map --dataset " + d + "/one --count -2 -o " + d + "/m.tsdf", "--count must not be negative");
 }
 
 TEST(CliMap, BuildMapFromMeshThenInfo) {

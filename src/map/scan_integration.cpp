@@ -1,6 +1,6 @@
 // TSDF integration of registered scans.
 //
-// Every ray (sensor origin -> point) is walked voxel by voxel (Amanatides & Woo). A voxel's observation is the
+// Every ray (sensor origin -> point) is walked through the grid (Amanatides & Woo). A voxel's observation is the
 // projective signed distance sdf = range - (centre - origin).u: inside the band (|sdf| <= truncation) it updates a
 // weighted running average, kept as sums of w*sdf and w so that the order of the updates does not matter; in front
 // of the band it is a free-space observation (+truncation, weight 1); behind the band nothing is learned.
@@ -14,15 +14,16 @@
 // block resolution away from surfaces: it costs an eighth of the steps, and it fills the gaps that diverging rays
 // leave between them far from the sensor (no surface was seen there, or the block would be a band block).
 //
-// Parallelism without locks or atomics: every thread walks every ray but writes only the blocks it owns
-// (coarse cell modulo the thread count), and descends to voxels only in its own blocks. The result is the same
-// whatever the thread count.
+// Parallelism without locks or atomics: space is cut into slabs of kSlabBlocks blocks across the box's longest
+// axis, dealt out to the threads in turn. Each thread walks only the parts of every ray inside its own slabs and
+// writes only there. Rays are cut at the same slab faces whatever the thread count, so the map does not depend on it.
 #include <omp.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <deque>
+#include <exception>
 #include <limits>
 #include <vector>
 
@@ -39,11 +40,15 @@ constexpr int B = TsdfMap::kBlockSize;
 constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
 constexpr std::uint32_t kNoBlock = 0xFFFFFFFFu;
 constexpr std::uint32_t kCarvedBlock = 0xFFFFFFFEu;  // crossed by rays, no band voxel: free as a whole
+// Wide enough that a slab holds several steps of a block walk, narrow enough to balance a few dozen threads.
+constexpr int kSlabBlocks = 4;
 
-struct BandBlock {
-  std::array<float, kVoxels> sum_wd{};
-  std::array<float, kVoxels> sum_w{};
+// Σ w·sdf and Σ w side by side: an update touches one cache line.
+struct VoxelSums {
+  float wd = 0.0f;
+  float w = 0.0f;
 };
+using BandBlock = std::array<VoxelSums, kVoxels>;
 
 // Points of one scan in the world frame, range-filtered.
 struct WorldScan {
@@ -102,65 +107,98 @@ void walk(const Vector3f& origin, const Vector3f& dir, float t0, float t1, float
   }
 }
 
-// The accumulator: a dense index over the observed box in blocks, and per-thread pools of the band blocks each
-// thread owns.
+// The accumulator: a dense index over the observed box in blocks, and one pool of band blocks per owner.
 class Accumulator {
  public:
-  Accumulator(const TsdfMap& box, int threads)
+  Accumulator(const TsdfMap& box, int owners)
       : voxel_(box.voxel_size()), truncation_(box.truncation()), min_block_(box.min_block()),
-        dims_(box.dims_blocks()), threads_(threads), slot_(box.coarse_index().size(), kNoBlock),
-        band_(static_cast<std::size_t>(threads)) {}
+        dims_(box.dims_blocks()), owners_(owners), slot_(box.coarse_index().size(), kNoBlock),
+        band_(static_cast<std::size_t>(owners)) {
+    dims_.maxCoeff(&slab_axis_);
+    slab_count_ = (dims_[slab_axis_] + kSlabBlocks - 1) / kSlabBlocks;
+  }
 
   // One thread's view. It caches the block of the previous voxel: consecutive voxels of a ray mostly share one.
   class Writer {
    public:
-    Writer(Accumulator& acc, int thread) : acc_(acc), thread_(thread) {}
+    // Thread `thread` of a team of `team` serves the owners o with o % team == thread: the runtime may grant
+    // fewer threads than the accumulator was made for, and every owner must still be served.
+    Writer(Accumulator& acc, int thread, int team) : acc_(acc), thread_(thread), team_(team) {}
 
     // The band observations of the ray origin -> origin + range * u.
     void band(const Vector3f& origin, const Vector3f& u, float range) {
       const float trunc = acc_.truncation_, voxel = acc_.voxel_;
-      walk(origin, u, std::max(0.0f, range - trunc - slack()), range + trunc + slack(), voxel, 1,
-           [&](const Vector3i& v, float, float) {
-             const float sdf = range - (v.cast<float>() * voxel - origin).dot(u);
-             if (sdf > trunc || sdf < -trunc || !select(block_of(v))) return;
-             const float weight = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
-             if (weight <= 0.0f) return;
-             std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
-             auto& pool = acc_.band_[static_cast<std::size_t>(thread_)];
-             if (slot == kNoBlock) {
-               slot = static_cast<std::uint32_t>(pool.size());
-               pool.emplace_back();
-             }
-             BandBlock& b = pool[slot];
-             const std::size_t l = local(v);
-             b.sum_wd[l] += weight * sdf;
-             b.sum_w[l] += weight;
-           });
+      owned_parts(origin, u, std::max(0.0f, range - trunc - slack()), range + trunc + slack(), [&](float ta, float tb) {
+        walk(origin, u, ta, tb, voxel, 1, [&](const Vector3i& v, float, float) {
+          const float sdf = range - (v.cast<float>() * voxel - origin).dot(u);
+          if (sdf > trunc || sdf < -trunc || !select(block_of(v))) return;
+          const float weight = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
+          if (weight <= 0.0f) return;
+          std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
+          auto& pool = acc_.band_[static_cast<std::size_t>(owner_)];
+          if (slot == kNoBlock) {
+            slot = static_cast<std::uint32_t>(pool.size());
+            pool.emplace_back();
+          }
+          VoxelSums& sums = pool[slot][local(v)];
+          sums.wd += weight * sdf;
+          sums.w += weight;
+        });
+      });
     }
 
     // The free space of the same ray in front of its band: block by block, voxel by voxel inside band blocks.
     void carve(const Vector3f& origin, const Vector3f& u, float range) {
       const float trunc = acc_.truncation_, voxel = acc_.voxel_;
       if (range <= trunc) return;
-      walk(origin, u, 0.0f, range - trunc + slack(), voxel, B, [&](const Vector3i& block, float t_in, float t_out) {
-        if (!select(block)) return;
-        std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
-        if (slot == kNoBlock || slot == kCarvedBlock) {
-          slot = kCarvedBlock;
-          return;
-        }
-        BandBlock& b = acc_.band_[static_cast<std::size_t>(thread_)][slot];
-        walk(origin, u, t_in, t_out, voxel, 1, [&](const Vector3i& v, float, float) {
-          // Float rounding at the block's faces may start or end the walk in a neighbour's voxel.
-          if (block_of(v) != block || range - (v.cast<float>() * voxel - origin).dot(u) <= trunc) return;
-          const std::size_t l = local(v);
-          b.sum_wd[l] += trunc;
-          b.sum_w[l] += 1.0f;
+      owned_parts(origin, u, 0.0f, range - trunc + slack(), [&](float ta, float tb) {
+        walk(origin, u, ta, tb, voxel, B, [&](const Vector3i& block, float t_in, float t_out) {
+          if (!select(block)) return;
+          std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
+          if (slot == kNoBlock || slot == kCarvedBlock) {
+            slot = kCarvedBlock;
+            return;
+          }
+          BandBlock& b = acc_.band_[static_cast<std::size_t>(owner_)][slot];
+          walk(origin, u, t_in, t_out, voxel, 1, [&](const Vector3i& v, float, float) {
+            // Float rounding at the block's faces may start or end the walk in a neighbour's voxel.
+            if (block_of(v) != block || range - (v.cast<float>() * voxel - origin).dot(u) <= trunc) return;
+            VoxelSums& sums = b[local(v)];
+            sums.wd += trunc;
+            sums.w += 1.0f;
+          });
         });
       });
     }
 
    private:
+    // Calls part(ta, tb) for each piece of the segment t in [t0, t1] that crosses a slab this thread serves,
+    // with slab_ set to that slab.
+    template <typename Part>
+    void owned_parts(const Vector3f& origin, const Vector3f& u, float t0, float t1, Part&& part) {
+      const int a = acc_.slab_axis_;
+      const float size = acc_.voxel_ * static_cast<float>(B * kSlabBlocks);
+      const float base = (static_cast<float>(acc_.min_block_[a] * B) - 0.5f) * acc_.voxel_;  // face of slab 0
+      auto slab_at = [&](float t) { return static_cast<int>(std::floor((origin[a] + t * u[a] - base) / size)); };
+      const int s0 = slab_at(t0), s1 = slab_at(t1);
+      const int first = std::max(0, std::min(s0, s1)), last = std::min(acc_.slab_count_ - 1, std::max(s0, s1));
+      for (int s = first; s <= last; ++s) {
+        if ((s % acc_.owners_) % team_ != thread_) continue;
+        float ta = t0, tb = t1;
+        if (u[a] != 0.0f) {
+          const float face0 = (base + static_cast<float>(s) * size - origin[a]) / u[a];
+          const float face1 = (base + static_cast<float>(s + 1) * size - origin[a]) / u[a];
+          ta = std::max(t0, std::min(face0, face1));
+          tb = std::min(t1, std::max(face0, face1));
+        }
+        if (!(ta < tb)) continue;
+        slab_ = s;
+        owner_ = s % acc_.owners_;
+        block_ = Vector3i::Constant(std::numeric_limits<int>::min());
+        part(ta, tb);
+      }
+    }
+
     // A ray touches a voxel only within half a voxel diagonal of the projection of the voxel's centre.
     float slack() const { return 0.5f * std::sqrt(3.0f) * acc_.voxel_; }
     // Arithmetic shifts and masks are floor division and modulo by 8 for negative indices too.
@@ -169,25 +207,26 @@ class Accumulator {
       return static_cast<std::size_t>((v.x() & (B - 1)) + B * ((v.y() & (B - 1)) + B * (v.z() & (B - 1))));
     }
 
-    // True if the block is inside the box and owned by this thread; sets cell_.
+    // True if the block is inside the box and in the current slab (a walk may round into the next one); sets cell_.
     bool select(const Vector3i& block) {
       if (block != block_) {
         block_ = block;
         const Vector3i c = block - acc_.min_block_;
-        owned_ = (c.array() >= 0).all() && (c.array() < acc_.dims_.array()).all();
-        if (owned_) {
+        inside_ = (c.array() >= 0).all() && (c.array() < acc_.dims_.array()).all() &&
+                  c[acc_.slab_axis_] / kSlabBlocks == slab_;
+        if (inside_) {
           cell_ = c.x() + static_cast<std::int64_t>(acc_.dims_.x()) * (c.y() + static_cast<std::int64_t>(acc_.dims_.y()) * c.z());
-          owned_ = cell_ % acc_.threads_ == thread_;
         }
       }
-      return owned_;
+      return inside_;
     }
 
     Accumulator& acc_;
-    int thread_;
+    int thread_, team_;
+    int slab_ = -1, owner_ = 0;
     Vector3i block_ = Vector3i::Constant(std::numeric_limits<int>::min());
     std::int64_t cell_ = -1;
-    bool owned_ = false;
+    bool inside_ = false;
   };
   static_assert(B == 8, "block_of() and local() shift and mask by 3 bits");
 
@@ -204,9 +243,9 @@ class Accumulator {
         map.mark_block_free(block);
         continue;
       }
-      const BandBlock& b = band_[static_cast<std::size_t>(c % threads_)][slot];
+      const BandBlock& b = band_[static_cast<std::size_t>(((block - min_block_)[slab_axis_] / kSlabBlocks) % owners_)][slot];
       for (std::size_t l = 0; l < kVoxels; ++l) {
-        values[l] = b.sum_w[l] > 0.0f ? map.quantize(b.sum_wd[l] / b.sum_w[l]) : TsdfMap::kUnknownValue;
+        values[l] = b[l].w > 0.0f ? map.quantize(b[l].wd / b[l].w) : TsdfMap::kUnknownValue;
       }
       map.set_block(block, values);
     }
@@ -216,7 +255,8 @@ class Accumulator {
  private:
   float voxel_, truncation_;
   Vector3i min_block_, dims_;
-  int threads_;
+  int owners_;  // slab s belongs to owner s % owners_
+  int slab_axis_ = 0, slab_count_ = 0;
   std::vector<std::uint32_t> slot_;  // kNoBlock, kCarvedBlock or a band block number in the owner's pool
   std::vector<std::deque<BandBlock>> band_;  // deques: blocks never move once allocated
 };
@@ -282,25 +322,37 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
   Accumulator acc(box, threads);
 
   // Pass 1: the truncation band around every point. Pass 2: free space in front of the band.
-  for (const bool band_pass : {true, false}) {
-    for (std::size_t i : scans) {
-      const WorldScan scan = load_world_scan(dataset, i, options);
+  // A thread's carving depends only on the band blocks it owns itself, so the threads never wait for one another:
+  // each loads the scans on its own (cheap next to the integration) and runs through both passes at its own pace.
+  std::exception_ptr failure;
 #pragma omp parallel num_threads(threads)
-      {
-        Accumulator::Writer writer(acc, omp_get_thread_num());
-        for (const Vector3f& p : scan.points) {
-          const Vector3f ray = p - scan.origin;
-          const float range = ray.norm();
-          if (band_pass) {
-            writer.band(scan.origin, ray / range, range);
-          } else {
-            writer.carve(scan.origin, ray / range, range);
+  {
+    const int thread = omp_get_thread_num();
+    Accumulator::Writer writer(acc, thread, omp_get_num_threads());
+    try {
+      for (const bool band_pass : {true, false}) {
+        for (std::size_t i : scans) {
+          const WorldScan scan = load_world_scan(dataset, i, options);
+          for (const Vector3f& p : scan.points) {
+            const Vector3f ray = p - scan.origin;
+            const float range = ray.norm();
+            if (band_pass) {
+              writer.band(scan.origin, ray / range, range);
+            } else {
+              writer.carve(scan.origin, ray / range, range);
+            }
           }
+          // Thread 0 is the calling thread: the callback runs where the caller expects it.
+          if (thread == 0 && done + 1 < steps) report();
         }
       }
-      report();
+    } catch (...) {
+#pragma omp critical(scan_integration_failure)
+      if (!failure) failure = std::current_exception();
     }
   }
+  if (failure) std::rethrow_exception(failure);
+  report();
 
   TsdfMap map = acc.to_map();
   map.compact();

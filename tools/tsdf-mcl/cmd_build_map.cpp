@@ -65,7 +65,7 @@ int run_build_map(int argc, char** argv) {
                 {"count", "N", "0", "--dataset: number of scans (0 = all remaining)"},
                 {"voxel", "M", "0.05", "voxel size (m); not with --import-h5"},
                 {"truncation", "M", "", "truncation distance (m) [default: 0.3; 0.6 with --import-h5]"},
-                {"margin", "M", "1.0", "--mesh/--dataset: unknown space added around the mesh or observed box (m)"},
+                {"margin", "M", "1.0", "--mesh/--dataset: space added around the mesh or the observed box (m)"},
                 {"min-range", "M", "0.3", "--dataset: ignore points closer to the sensor (m)"},
                 {"max-range", "M", "60", "--dataset: ignore points farther from the sensor (m)"},
                 {"no-free-space", "", "", "--mesh: leave blocks beyond the band unknown instead of filling free space"},

@@ -1,4 +1,6 @@
+#include <charconv>
 #include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -6,6 +8,19 @@
 #include "tsdf_mcl/map_io.hpp"
 
 namespace tsdf_mcl::cli {
+namespace {
+
+// The double nearest to a float's shortest decimal form, so JSON shows 0.05 rather than 0.05000000074505806.
+double tidy(float value) {
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof(text) - 1, value).ptr;
+  *end = '\0';
+  return std::strtod(text, nullptr);
+}
+
+nlohmann::json tidy(const Eigen::Vector3f& v) { return {tidy(v.x()), tidy(v.y()), tidy(v.z())}; }
+
+}  // namespace
 
 int run_info(int argc, char** argv) {
   Options o("info", "tsdf-mcl info MAP [--json]",
@@ -20,7 +35,8 @@ int run_info(int argc, char** argv) {
   const TsdfMap::Stats s = map.stats();
   const Eigen::Vector3f lo = map.world_min(), hi = map.world_max(), size = hi - lo;
   const Eigen::Vector3i& dims = map.dims_blocks();
-  const double voxel_volume = static_cast<double>(map.voxel_size()) * map.voxel_size() * map.voxel_size();
+  const double voxel = tidy(map.voxel_size());
+  const double voxel_volume = voxel * voxel * voxel;
   const double known_m3 = static_cast<double>(s.known_voxels) * voxel_volume;
   const double free_m3 = static_cast<double>(s.free_voxels) * voxel_volume;
   const double mib = static_cast<double>(s.memory_bytes) / (1024.0 * 1024.0);
@@ -28,12 +44,12 @@ int run_info(int argc, char** argv) {
   if (o.flag("json")) {
     const nlohmann::json j = {
         {"file", file},
-        {"voxel_size", map.voxel_size()},
-        {"truncation", map.truncation()},
+        {"voxel_size", tidy(map.voxel_size())},
+        {"truncation", tidy(map.truncation())},
         {"block_size", TsdfMap::kBlockSize},
-        {"world_min", {lo.x(), lo.y(), lo.z()}},
-        {"world_max", {hi.x(), hi.y(), hi.z()}},
-        {"size", {size.x(), size.y(), size.z()}},
+        {"world_min", tidy(lo)},
+        {"world_max", tidy(hi)},
+        {"size", tidy(size)},
         {"min_block", {map.min_block().x(), map.min_block().y(), map.min_block().z()}},
         {"dims_blocks", {dims.x(), dims.y(), dims.z()}},
         {"coarse_cells", map.coarse_index().size()},
