@@ -112,6 +112,9 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   panels[0].caption = "start  -  200 particles";
   panels[1].particles = tsdf_mcl::read_particle_snapshot(dir / "end.part");
   panels[1].caption = "end  -  200 particles";
+  // All particles of "end" are at one place: the command marks their mean.
+  panels[1].markers.push_back({tsdf_mcl::pose_from_xyz_rpy(3.2, 1.6, 0.5, 0, 0, 0), tsdf_mcl::palette_color(0),
+                               "particle mean"});
   tsdf_mcl::MapViewOptions options;
   options.metres_per_pixel = 0.02;
   options.title = "small room";

@@ -4,12 +4,13 @@
 #include <limits>
 #include <random>
 
+#include "map_test_helpers.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/plot.hpp"
 
 using tsdf_mcl::Error;
 using tsdf_mcl::Image;
-using tsdf_mcl::LineChart;
+using tsdf_mcl::LinePlot;
 using tsdf_mcl::Rgb;
 using tsdf_mcl::nice_ticks;
 
@@ -100,9 +101,9 @@ TEST(PlotTicks, LabelsAreRoundAndNeverNegativeZero) {
 }
 
 TEST(PlotChart, DrawsSeriesReferenceLinesAndLegend) {
-  LineChart chart;
-  chart.title = "translation error";
-  chart.y_label = "error [m]";
+  LinePlot plot;
+  plot.title = "translation error";
+  plot.y_label = "error [m]";
   const Rgb x_color{31, 119, 180}, marker_color{200, 0, 200}, band_color{0, 150, 0};
   tsdf_mcl::PlotSeries x{"x", {}, {}, x_color};
   tsdf_mcl::PlotSeries y{"y", {}, {}};
@@ -113,10 +114,10 @@ TEST(PlotChart, DrawsSeriesReferenceLinesAndLegend) {
     y.x.push_back(t);
     y.y.push_back(i == 50 ? std::numeric_limits<double>::quiet_NaN() : 0.1 * std::cos(t));
   }
-  chart.series = {x, y};
-  chart.horizontal_lines = {{0.3, "+0.3 m", band_color}, {-0.3, "-0.3 m", band_color}};
-  chart.vertical_markers = {{2.0, "converged", marker_color}};
-  const Image image = tsdf_mcl::render_line_chart(chart);
+  plot.series = {x, y};
+  plot.horizontal_lines = {{0.3, "+0.3 m", band_color}, {-0.3, "-0.3 m", band_color}};
+  plot.markers.emplace_back(2.0, "converged", marker_color);
+  const Image image = tsdf_mcl::render_plot(plot);
   EXPECT_EQ(image.width(), 1000);
   EXPECT_EQ(image.height(), 500);
   EXPECT_GT(count_color(image, x_color), 300);
@@ -133,14 +134,14 @@ TEST(PlotChart, DrawsSeriesReferenceLinesAndLegend) {
 }
 
 TEST(PlotChart, FixedLimitsClipTheDataAndCustomSizesWork) {
-  LineChart chart;
-  chart.width = 420;
-  chart.height = 260;
-  chart.y_min = -1.0;
-  chart.y_max = 1.0;
+  LinePlot plot;
+  plot.width = 420;
+  plot.height = 260;
+  plot.y_min = -1.0;
+  plot.y_max = 1.0;
   const Rgb color{250, 0, 0};
-  chart.series = {{"wild", {0.0, 1.0, 2.0, 3.0}, {0.0, 1e30, -1e30, 0.5}, color}};
-  const Image image = tsdf_mcl::render_line_chart(chart);
+  plot.series = {{"wild", {0.0, 1.0, 2.0, 3.0}, {0.0, 1e30, -1e30, 0.5}, color}};
+  const Image image = tsdf_mcl::render_plot(plot);
   EXPECT_EQ(image.width(), 420);
   EXPECT_EQ(image.height(), 260);
   EXPECT_GT(count_color(image, color), 20);
@@ -152,29 +153,42 @@ TEST(PlotChart, FixedLimitsClipTheDataAndCustomSizesWork) {
 }
 
 TEST(PlotChart, EmptyAndDegenerateInputsStillDraw) {
-  LineChart chart;
-  EXPECT_NO_THROW(tsdf_mcl::render_line_chart(chart));
-  chart.series = {{"one point", {5.0}, {1.0}, Rgb{0, 0, 250}}};
-  const Image image = tsdf_mcl::render_line_chart(chart);
+  LinePlot plot;
+  EXPECT_NO_THROW(tsdf_mcl::render_plot(plot));
+  plot.series = {{"one point", {5.0}, {1.0}, Rgb{0, 0, 250}}};
+  const Image image = tsdf_mcl::render_plot(plot);
   EXPECT_GT(count_color(image, Rgb{0, 0, 250}), 5);  // drawn as a dot
-  chart.series = {{"flat", {0.0, 1.0, 2.0}, {2.0, 2.0, 2.0}}};
-  EXPECT_NO_THROW(tsdf_mcl::render_line_chart(chart));
+  plot.series = {{"flat", {0.0, 1.0, 2.0}, {2.0, 2.0, 2.0}}};
+  EXPECT_NO_THROW(tsdf_mcl::render_plot(plot));
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  chart.series = {{"all gaps", {nan, nan}, {nan, 1.0}}};
-  EXPECT_NO_THROW(tsdf_mcl::render_line_chart(chart));
+  plot.series = {{"all gaps", {nan, nan}, {nan, 1.0}}};
+  EXPECT_NO_THROW(tsdf_mcl::render_plot(plot));
 }
 
 TEST(PlotChart, BadInputThrows) {
-  LineChart chart;
-  chart.series = {{"bad", {0.0, 1.0}, {1.0}}};
-  EXPECT_THROW(tsdf_mcl::render_line_chart(chart), Error);
-  chart.series.clear();
-  chart.width = 60;
-  EXPECT_THROW(tsdf_mcl::render_line_chart(chart), Error);
-  chart.width = 1000;
-  chart.y_min = 1.0;
-  chart.y_max = 1.0;
-  EXPECT_THROW(tsdf_mcl::render_line_chart(chart), Error);
-  chart.y_max = std::numeric_limits<double>::infinity();
-  EXPECT_THROW(tsdf_mcl::render_line_chart(chart), Error);
+  LinePlot plot;
+  plot.series = {{"bad", {0.0, 1.0}, {1.0}}};
+  EXPECT_THROW(tsdf_mcl::render_plot(plot), Error);
+  plot.series.clear();
+  plot.width = 60;
+  EXPECT_THROW(tsdf_mcl::render_plot(plot), Error);
+  plot.width = 1000;
+  plot.y_min = 1.0;
+  plot.y_max = 1.0;
+  EXPECT_THROW(tsdf_mcl::render_plot(plot), Error);
+  plot.y_max = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(tsdf_mcl::render_plot(plot), Error);
+}
+
+TEST(PlotChart, WritesPngFiles) {
+  tsdf_mcl::test::TempDir dir;
+  LinePlot plot;
+  plot.width = 300;
+  plot.height = 200;
+  plot.series = {{"a", {0.0, 1.0}, {0.0, 1.0}}};
+  tsdf_mcl::write_plot_png(plot, dir / "p.png");
+  const Image back = tsdf_mcl::load_png(dir / "p.png");
+  EXPECT_EQ(back.width(), 300);
+  EXPECT_EQ(back.height(), 200);
+  EXPECT_THROW(tsdf_mcl::write_plot_png(plot, dir / "missing/p.png"), Error);
 }

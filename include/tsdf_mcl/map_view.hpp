@@ -64,8 +64,8 @@ class MapRaster {
   // World bounds of the columns that are not unknown; nullopt if there are none.
   std::optional<Eigen::AlignedBox2d> known_bounds() const;
 
-  // The colour a view paints a column in: unknown grey, free white, obstacles by height (viridis over
-  // obstacle_min..obstacle_max), slices by signed distance.
+  // The colour a view paints a column in: unknown grey, free white, obstacles by height (reversed viridis over
+  // obstacle_min..obstacle_max: the tallest darkest), slices by signed distance.
   Rgb color(int i, int j) const;
 
  private:
@@ -116,7 +116,7 @@ struct MapViewOptions {
   // resampling); then they all get particle_color.
   Rgb particle_color = rgb_hex(0xd62728);
   float particle_radius = 1.5f;  // pixels
-  float particle_alpha = 0.5f;
+  float particle_alpha = 0.6f;     // at most; lowered when the particles would cover most of a panel
   bool particle_headings = false;  // a short tick along each particle's heading
   float text_scale = 0.0f;        // see TextStyle::scale; 0 = from the panel size (1.5 .. 2.5)
 };

@@ -1,16 +1,18 @@
 #pragma once
-// Line charts of values over time (e.g. the translation error per axis of a localization run, as in the paper's
-// figures). Fill a LineChart and call render_line_chart; save the result with save_png.
+// Line plots of values over time (e.g. the translation error per axis of a localization run, as in the paper's
+// figures). Fill a LinePlot and render it, or write it straight to a PNG file:
 //
-//   LineChart chart;
-//   chart.title = "translation error";
-//   chart.y_label = "error [m]";
-//   chart.series = {{"x", times, err_x}, {"y", times, err_y}, {"z", times, err_z}};
-//   chart.horizontal_lines = {{0.3, "+0.3 m"}, {-0.3, "-0.3 m"}};
-//   chart.vertical_markers = {{12.5, "converged"}};
-//   save_png(render_line_chart(chart), "error.png");
+//   LinePlot plot;
+//   plot.title = "translation error";
+//   plot.y_label = "error [m]";
+//   plot.series = {{"x", times, err_x}, {"y", times, err_y}, {"z", times, err_z}};
+//   plot.horizontal_lines = {{0.3, "+0.3 m"}, {-0.3, "-0.3 m"}};
+//   plot.markers.emplace_back(12.5, "converged");
+//   write_plot_png(plot, "error.png");
+#include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/image.hpp"
@@ -35,18 +37,20 @@ struct HorizontalLine {
 
 // A vertical marker at an x value (e.g. the time the filter converged), labelled at its top.
 struct VerticalMarker {
-  double x = 0.0;
+  VerticalMarker(double at, std::string text = {}, Rgb colour = rgb_hex(0x333333))
+      : x(at), label(std::move(text)), color(colour) {}
+  double x;
   std::string label;
-  Rgb color = rgb_hex(0x333333);
+  Rgb color;
 };
 
-struct LineChart {
+struct LinePlot {
   std::string title;
   std::string x_label = "time [s]";
   std::string y_label;
   std::vector<PlotSeries> series;
   std::vector<HorizontalLine> horizontal_lines;
-  std::vector<VerticalMarker> vertical_markers;
+  std::vector<VerticalMarker> markers;
   // Fixed axis limits; by default the axes cover the data, the reference lines and the markers. Data outside fixed
   // limits is clipped at the plot's border.
   std::optional<double> x_min, x_max, y_min, y_max;
@@ -57,7 +61,9 @@ struct LineChart {
 
 // Throws Error for series whose x and y differ in length, an image too small for its axes, or empty/inverted fixed
 // limits.
-Image render_line_chart(const LineChart& chart);
+Image render_plot(const LinePlot& plot);
+// render_plot, then save_png.
+void write_plot_png(const LinePlot& plot, const std::filesystem::path& file);
 
 // Axis ticks at a 1-2-5 x 10^k step, the first at or below lo and the last at or above hi, with at most max_ticks
 // values (at least 2). lo == hi gives a small range around the value.

@@ -36,8 +36,9 @@ std::int16_t word_half(std::uint32_t word, int l) {
   return static_cast<std::int16_t>((l & 1) ? (word >> 16) : (word & 0xFFFFu));
 }
 
-// Viridis without its brightest tenth: yellow walls would vanish on white free space.
-Rgb height_color(float t) { return viridis(0.9f * t); }
+// Viridis reversed, so that tall structure (walls) is dark and stands out like the walls of a floor plan while low
+// clutter is light; without viridis' brightest tenth, which would vanish on white free space.
+Rgb height_color(float t) { return viridis(0.9f * (1.0f - t)); }
 
 // Particle colour and opacity by weight relative to the heaviest, on a log scale over three decades: the weights of
 // an unconverged filter span many orders of magnitude, and a linear scale would show all but a few as zero.
@@ -400,12 +401,18 @@ void draw_particles(Image& image, const TopDownTransform& view, const ParticleSn
   // Heavy particles last, on top of the light ones they would otherwise hide under.
   if (by_weight) std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ps[a].weight < ps[b].weight; });
   const float r = options.particle_radius;
+  // Tens of thousands of particles spread over a map (a global initialization) would paint it over completely at
+  // full opacity; fainter dots then show their density and keep the map readable under them.
+  const Eigen::Vector4i area = view.area();
+  const double area_px = static_cast<double>(area.z() - area.x()) * (area.w() - area.y());
+  const double dot_px = static_cast<double>(ps.size()) * 3.14159 * std::max(r, 0.5f) * std::max(r, 0.5f);
+  const float opacity = std::clamp(static_cast<float>(0.25 * area_px / dot_px), 0.05f, options.particle_alpha);
   for (const std::size_t k : order) {
     const auto& p = ps[k];
     const Eigen::Vector2f at = view.to_pixel(p.position.head<2>().cast<double>());
     const float level = by_weight ? weight_level(p.weight, max_w) : 1.0f;
     const Rgb color = by_weight ? particle_weight_color(options.particle_color, level) : options.particle_color;
-    const float alpha = options.particle_alpha * (by_weight ? 0.4f + 0.6f * level : 1.0f);
+    const float alpha = opacity * (by_weight ? 0.4f + 0.6f * level : 1.0f);
     image.fill_circle(at, r, color, alpha);
     if (options.particle_headings) {
       Pose pose = Pose::Identity();
@@ -555,17 +562,19 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
     draw_scale_bar(image, view, static_cast<float>(area.x() + pad * 2), static_cast<float>(area.w() - pad * 2),
                    static_cast<float>(area.z() - area.x()) / 4.0f, ts);
     for (const auto& t : trajectories) draw_trajectory(image, view, t, ts);
-    draw_particles(image, view, panel.particles, options);
+    // Markers summarize the particles; drawn under them, a converged cloud stays visible on its own marker.
     for (const auto& m : panel.markers) {
-      draw_pose_arrow(image, view.to_pixel(m.pose.translation().head<2>()), m.pose, m.color, 16.0f * ts);
+      draw_pose_arrow(image, view.to_pixel(m.pose.translation().head<2>()), m.pose, m.color, 14.0f * ts);
     }
+    draw_particles(image, view, panel.particles, options);
     image.reset_clip();
     image.stroke_rect(static_cast<float>(area.x() - 1), static_cast<float>(area.y() - 1), static_cast<float>(area.z() + 1),
                       static_cast<float>(area.w() + 1), colors::kAxis);
   }
 
   const float footer_y = static_cast<float>(panels_top + panel_h + pad);
-  float fx = static_cast<float>(x_start);
+  // Aligned with the panels where it fits beside them, from the left margin where it is the wider part.
+  float fx = static_cast<float>(x_start + footer_w <= width - pad ? x_start : pad);
   draw_legend(image, fx, footer_y, legend, ts);
   fx += legend_box.x();
   for (const auto& bar : bars) {

@@ -92,74 +92,74 @@ std::string format_tick(double value, int decimals) {
   return s;
 }
 
-Image render_line_chart(const LineChart& chart) {
-  for (const auto& s : chart.series) {
+Image render_plot(const LinePlot& plot) {
+  for (const auto& s : plot.series) {
     if (s.x.size() != s.y.size()) {
       throw Error("plot series '" + s.label + "' has " + std::to_string(s.x.size()) + " x values but " +
                   std::to_string(s.y.size()) + " y values");
     }
   }
-  const float ts = chart.text_scale;
+  const float ts = plot.text_scale;
   if (!(ts > 0.0f)) throw Error("plot text scale must be positive");
   const float line = 12.0f * ts;  // one text line
   const float pad = 6.0f * ts;
 
   Range xr, yr;
-  for (const auto& s : chart.series) {
+  for (const auto& s : plot.series) {
     for (std::size_t i = 0; i < s.x.size(); ++i) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
       xr.add(s.x[i]);
       yr.add(s.y[i]);
     }
   }
-  for (const auto& h : chart.horizontal_lines) yr.add(h.y);
-  for (const auto& m : chart.vertical_markers) xr.add(m.x);
+  for (const auto& h : plot.horizontal_lines) yr.add(h.y);
+  for (const auto& m : plot.markers) xr.add(m.x);
   if (!xr.valid()) xr = {0.0, 1.0};
   if (!yr.valid()) yr = {0.0, 1.0};
-  if (chart.x_min) xr.lo = *chart.x_min;
-  if (chart.x_max) xr.hi = *chart.x_max;
-  if (chart.y_min) yr.lo = *chart.y_min;
-  if (chart.y_max) yr.hi = *chart.y_max;
+  if (plot.x_min) xr.lo = *plot.x_min;
+  if (plot.x_max) xr.hi = *plot.x_max;
+  if (plot.y_min) yr.lo = *plot.y_min;
+  if (plot.y_max) yr.hi = *plot.y_max;
   if (!std::isfinite(xr.lo) || !std::isfinite(xr.hi) || !std::isfinite(yr.lo) || !std::isfinite(yr.hi) ||
-      ((chart.x_min || chart.x_max) && !(xr.lo < xr.hi)) || ((chart.y_min || chart.y_max) && !(yr.lo < yr.hi))) {
+      ((plot.x_min || plot.x_max) && !(xr.lo < xr.hi)) || ((plot.y_min || plot.y_max) && !(yr.lo < yr.hi))) {
     throw Error("plot axis limits are empty, inverted or not finite");
   }
 
   // Approximate tick counts from the image size first; the plot area follows from the labels they need.
-  const int max_x_ticks = std::clamp(chart.width / static_cast<int>(70.0f * ts), 3, 12);
-  const int max_y_ticks = std::clamp(chart.height / static_cast<int>(30.0f * ts), 3, 10);
+  const int max_x_ticks = std::clamp(plot.width / static_cast<int>(70.0f * ts), 3, 12);
+  const int max_y_ticks = std::clamp(plot.height / static_cast<int>(30.0f * ts), 3, 10);
   Ticks xt = nice_ticks(xr.lo, xr.hi, max_x_ticks);
   Ticks yt = nice_ticks(yr.lo, yr.hi, max_y_ticks);
   // Fixed limits are kept exactly. The x axis (time) ends where the data ends, which a run's length rarely matches to
   // a tick; the y axis ends on ticks, so the extreme values can be read off a labelled grid line.
   const bool tight_x = xr.hi > xr.lo;
-  const double x_lo = chart.x_min || tight_x ? xr.lo : xt.values.front();
-  const double x_hi = chart.x_max || tight_x ? xr.hi : xt.values.back();
-  const double y_lo = chart.y_min ? yr.lo : yt.values.front(), y_hi = chart.y_max ? yr.hi : yt.values.back();
+  const double x_lo = plot.x_min || tight_x ? xr.lo : xt.values.front();
+  const double x_hi = plot.x_max || tight_x ? xr.hi : xt.values.back();
+  const double y_lo = plot.y_min ? yr.lo : yt.values.front(), y_hi = plot.y_max ? yr.hi : yt.values.back();
 
   float y_label_width = 0.0f;
   for (double v : yt.values) y_label_width = std::max(y_label_width, text_size(format_tick(v, yt.decimals), ts).x());
 
   std::vector<LegendEntry> legend;
-  for (std::size_t i = 0; i < chart.series.size(); ++i) {
-    const auto& s = chart.series[i];
+  for (std::size_t i = 0; i < plot.series.size(); ++i) {
+    const auto& s = plot.series[i];
     if (!s.label.empty()) legend.push_back({s.label, s.color.value_or(palette_color(i)), LegendEntry::Symbol::kLine});
   }
   const Eigen::Vector2f legend_box = legend_size(legend, ts);
 
-  const float left = pad + (chart.y_label.empty() ? 0.0f : line + pad) + y_label_width + pad;
-  const float top = pad + (chart.title.empty() ? 0.0f : 1.3f * line + pad);
+  const float left = pad + (plot.y_label.empty() ? 0.0f : line + pad) + y_label_width + pad;
+  const float top = pad + (plot.title.empty() ? 0.0f : 1.3f * line + pad);
   const float right = pad + (legend.empty() ? 0.0f : legend_box.x() + pad);
-  const float bottom = pad + line + (chart.x_label.empty() ? 0.0f : line + pad);
+  const float bottom = pad + line + (plot.x_label.empty() ? 0.0f : line + pad);
   const float px0 = std::round(left), py0 = std::round(top);
-  const float px1 = std::round(static_cast<float>(chart.width) - right);
-  const float py1 = std::round(static_cast<float>(chart.height) - bottom);
+  const float px1 = std::round(static_cast<float>(plot.width) - right);
+  const float py1 = std::round(static_cast<float>(plot.height) - bottom);
   if (px1 - px0 < 40.0f || py1 - py0 < 40.0f) {
-    throw Error("plot of " + std::to_string(chart.width) + " x " + std::to_string(chart.height) +
+    throw Error("plot of " + std::to_string(plot.width) + " x " + std::to_string(plot.height) +
                 " pixels is too small for its labels");
   }
 
-  Image image(chart.width, chart.height, colors::kWhite);
+  Image image(plot.width, plot.height, colors::kWhite);
   auto to_px = [&](double x, double y) {
     return Eigen::Vector2d(px0 + (x - x_lo) / (x_hi - x_lo) * (px1 - px0), py1 - (y - y_lo) / (y_hi - y_lo) * (py1 - py0));
   };
@@ -184,22 +184,22 @@ Image render_line_chart(const LineChart& chart) {
   }
   image.stroke_rect(px0, py0, px1 + 1.0f, py1 + 1.0f, colors::kAxis);
 
-  if (!chart.title.empty()) {
-    image.draw_text(static_cast<float>(chart.width) / 2.0f, pad, chart.title,
+  if (!plot.title.empty()) {
+    image.draw_text(static_cast<float>(plot.width) / 2.0f, pad, plot.title,
                     {1.3f * ts, colors::kText, HAlign::kCenter, VAlign::kTop, false});
   }
-  if (!chart.x_label.empty()) {
-    image.draw_text((px0 + px1) / 2.0f, py1 + pad + line + pad, chart.x_label, label_style);
+  if (!plot.x_label.empty()) {
+    image.draw_text((px0 + px1) / 2.0f, py1 + pad + line + pad, plot.x_label, label_style);
   }
-  if (!chart.y_label.empty()) {
-    image.draw_text(pad, (py0 + py1) / 2.0f, chart.y_label, {ts, colors::kText, HAlign::kCenter, VAlign::kTop, true});
+  if (!plot.y_label.empty()) {
+    image.draw_text(pad, (py0 + py1) / 2.0f, plot.y_label, {ts, colors::kText, HAlign::kCenter, VAlign::kTop, true});
   }
 
   // Everything in data space is clipped to the plot area; lines are clipped analytically first so that values far
   // outside fixed limits keep their true slope at the border.
   image.set_clip(static_cast<int>(px0) + 1, static_cast<int>(py0) + 1, static_cast<int>(px1), static_cast<int>(py1));
   const Eigen::Vector2d clip_lo(px0 - 10.0, py0 - 10.0), clip_hi(px1 + 10.0, py1 + 10.0);
-  for (const auto& h : chart.horizontal_lines) {
+  for (const auto& h : plot.horizontal_lines) {
     const float y = static_cast<float>(to_px(x_lo, h.y).y());
     if (h.dashed) image.draw_dashed_line({px0, y}, {px1, y}, h.color, 1.5f, 8.0f);
     else image.draw_line({px0, y}, {px1, y}, h.color, 1.5f);
@@ -209,8 +209,8 @@ Image render_line_chart(const LineChart& chart) {
                       {ts, h.color, HAlign::kRight, below ? VAlign::kTop : VAlign::kBottom, false});
     }
   }
-  for (std::size_t i = 0; i < chart.series.size(); ++i) {
-    const auto& s = chart.series[i];
+  for (std::size_t i = 0; i < plot.series.size(); ++i) {
+    const auto& s = plot.series[i];
     const Rgb color = s.color.value_or(palette_color(i));
     std::vector<Eigen::Vector2f> run;
     auto flush = [&] {
@@ -242,7 +242,7 @@ Image render_line_chart(const LineChart& chart) {
     }
     flush();
   }
-  for (const auto& m : chart.vertical_markers) {
+  for (const auto& m : plot.markers) {
     const float x = static_cast<float>(to_px(m.x, y_lo).x());
     image.draw_dashed_line({x, py0}, {x, py1}, m.color, 1.5f, 8.0f);
     if (!m.label.empty()) {
@@ -259,5 +259,7 @@ Image render_line_chart(const LineChart& chart) {
   if (!legend.empty()) draw_legend(image, px1 + pad, py0, legend, ts);
   return image;
 }
+
+void write_plot_png(const LinePlot& plot, const std::filesystem::path& file) { save_png(render_plot(plot), file); }
 
 }  // namespace tsdf_mcl

@@ -71,6 +71,26 @@ std::string final_error_note(const std::vector<StampedPose>& estimate, const Dat
   return note;
 }
 
+// The filter's estimate where the particles agree on one place: their weighted mean position with the weighted
+// circular mean of their headings; nullopt while they are spread out (a mean between modes is nowhere).
+std::optional<Pose> concentrated_mean(const ParticleSnapshot& snapshot, double max_spread) {
+  double total = 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Vector2d heading = Eigen::Vector2d::Zero();
+  for (const auto& p : snapshot.particles) {
+    total += p.weight;
+    mean += p.weight * p.position.cast<double>();
+    const Eigen::Vector3f forward = p.orientation * Eigen::Vector3f::UnitX();
+    heading += p.weight * Eigen::Vector2d(forward.x(), forward.y());
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  mean /= total;
+  double spread = 0.0;
+  for (const auto& p : snapshot.particles) spread += p.weight * (p.position.cast<double>() - mean).head<2>().squaredNorm();
+  if (std::sqrt(spread / total) > max_spread || heading.norm() < 1e-9) return std::nullopt;
+  return pose_from_xyz_rpy(mean.x(), mean.y(), mean.z(), 0.0, 0.0, std::atan2(heading.y(), heading.x()));
+}
+
 }  // namespace
 
 int run_render(int argc, char** argv) {
@@ -169,6 +189,9 @@ int run_render(int argc, char** argv) {
       panel.caption = "(" + std::string(1, static_cast<char>('a' + i % 26)) + ") " + panel.caption;
     }
     panel.caption += "  -  " + std::to_string(panel.particles.particles.size()) + " particles";
+    if (const auto mean = concentrated_mean(panel.particles, 0.5)) {
+      panel.markers.push_back({*mean, palette_color(0), "particle mean"});
+    }
     panels.push_back(std::move(panel));
   }
 
