@@ -85,8 +85,8 @@ class MapRaster {
 // A trajectory drawn in every panel: a line through the positions (broken where consecutive poses jump, as a
 // global localization's early estimates do), a ring at the start and an arrow along the heading at the end.
 struct TrajectoryOverlay {
-  std::string label;  // legend text
-  std::vector<Pose> poses;
+  std::string label{};  // legend text
+  std::vector<Pose> poses{};
   Rgb color = colors::kBlack;
   float width = 2.0f;  // pixels
   float alpha = 1.0f;  // a wide translucent line under the others suits a ground truth: deviations show beside it
@@ -97,14 +97,14 @@ struct TrajectoryOverlay {
 struct PoseMarker {
   Pose pose = Pose::Identity();
   Rgb color = rgb_hex(0xd62728);
-  std::string label;  // legend text; empty = not listed
+  std::string label{};  // legend text; empty = not listed
 };
 
 // One panel: the map with the trajectories and its own particles and markers, captioned above.
 struct MapPanel {
-  std::string caption;
-  ParticleSnapshot particles;
-  std::vector<PoseMarker> markers;
+  std::string caption{};
+  ParticleSnapshot particles{};
+  std::vector<PoseMarker> markers{};
 };
 
 struct MapViewOptions {

@@ -20,9 +20,9 @@
 namespace tsdf_mcl {
 
 struct PlotSeries {
-  std::string label;       // shown in the legend; empty = not listed
-  std::vector<double> x;   // e.g. time in s
-  std::vector<double> y;   // same length as x; a non-finite value leaves a gap in the line
+  std::string label{};      // shown in the legend; empty = not listed
+  std::vector<double> x{};  // e.g. time in s
+  std::vector<double> y{};  // same length as x; a non-finite value leaves a gap in the line
   std::optional<Rgb> color = std::nullopt;  // default: the next palette colour
   float width = 2.0f;      // line width in pixels
 };
@@ -30,7 +30,7 @@ struct PlotSeries {
 // A horizontal reference line (e.g. the +-0.3 m convergence band), labelled at its right end.
 struct HorizontalLine {
   double y = 0.0;
-  std::string label;
+  std::string label{};
   Rgb color = rgb_hex(0x777777);
   bool dashed = true;
 };

@@ -626,6 +626,14 @@ void draw_legend(Image& image, float x, float y, const std::vector<LegendEntry>&
       case LegendEntry::Symbol::kDot:
         image.fill_circle((a + b) / 2.0f, 2.5f * text_scale, e.color);
         break;
+      case LegendEntry::Symbol::kArrow: {
+        const float h = kCapHeight * text_scale / 2.0f + 1.0f;
+        const Eigen::Vector2f c = (a + b) / 2.0f;
+        image.fill_polygon({c + Eigen::Vector2f(1.2f * h, 0.0f), c + Eigen::Vector2f(-h, h), c + Eigen::Vector2f(-0.4f * h, 0.0f),
+                            c + Eigen::Vector2f(-h, -h)},
+                           e.color);
+        break;
+      }
       case LegendEntry::Symbol::kBand:
         image.fill_rect(a.x(), top, b.x(), top + kCapHeight * text_scale, e.color);
         image.stroke_rect(a.x(), top, b.x(), top + kCapHeight * text_scale, colors::kAxis);

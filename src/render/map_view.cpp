@@ -489,7 +489,7 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
     for (const auto& m : panel.markers) {
       if (m.label.empty() || std::find(seen_markers.begin(), seen_markers.end(), m.label) != seen_markers.end()) continue;
       seen_markers.push_back(m.label);
-      legend.push_back({m.label, m.color, LegendEntry::Symbol::kDot});
+      legend.push_back({m.label, m.color, LegendEntry::Symbol::kArrow});
     }
   }
   legend.push_back({"not observed", kUnknownColor, LegendEntry::Symbol::kBand});
