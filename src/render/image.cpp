@@ -424,6 +424,7 @@ void Image::blit(const Image& source, int x, int y) {
 Image compose_grid(const std::vector<Image>& images, int columns, int gap, Rgb background) {
   if (images.empty()) throw Error("nothing to compose: no images");
   columns = std::clamp(columns, 1, static_cast<int>(images.size()));
+  gap = std::max(gap, 0);
   int cell_w = 0, cell_h = 0;
   for (const Image& im : images) {
     cell_w = std::max(cell_w, im.width());
@@ -555,8 +556,9 @@ void draw_scale_bar(Image& image, const TopDownTransform& view, float x, float y
   const Eigen::Vector2f label_size = text_size(label, text_scale);
   const float pad = 3.0f * text_scale;
   const float tick = 3.0f * text_scale;
+  const float left = std::min(x, x + length / 2.0f - label_size.x() / 2.0f);
   const float right = std::max(x + length, x + length / 2.0f + label_size.x() / 2.0f);
-  image.fill_rect(x - pad, y - tick - label_size.y() - 2.0f * pad, right + pad, y + pad, colors::kWhite, 0.8f);
+  image.fill_rect(left - pad, y - tick - label_size.y() - 2.0f * pad, right + pad, y + pad, colors::kWhite, 0.8f);
   const float w = std::max(1.0f, text_scale);
   image.fill_rect(x, y - w, x + length, y, colors::kText);
   image.fill_rect(x, y - tick, x + w, y, colors::kText);

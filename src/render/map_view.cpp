@@ -16,7 +16,8 @@ constexpr int kB = TsdfMap::kBlockSize;
 // A sideways surface must span this many voxels of one column to count as an obstacle: single voxels are mostly
 // noise on floors and the rims of horizontal surfaces.
 constexpr int kMinObstacleVoxels = 2;
-// Surfaces whose normal is within ~37 degrees of vertical (floors, ramps, ceilings) are not obstacles.
+// Surfaces whose distance changes mostly vertically (normal within roughly 37 degrees of vertical: floors, ramps,
+// ceilings) are not obstacles.
 constexpr float kVerticalNormalCos2 = 0.64f;
 
 constexpr Rgb kUnknownColor = rgb_hex(0xbdbdbd);
@@ -104,7 +105,8 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
   const auto& coarse = map.coarse_index();
   const auto& pool = map.block_pool();
   const int q_surface = static_cast<int>(vs / truncation_ * TsdfMap::kQuantMax);
-  std::vector<std::uint16_t> obstacle_voxels(slice_ ? 0 : cells_.size(), 0);
+  // Counted only up to kMinObstacleVoxels: whether a column is an obstacle is all that matters.
+  std::vector<std::uint8_t> obstacle_voxels(slice_ ? 0 : cells_.size(), 0);
 
   // Neighbours for the surface orientation; most lie in the same block, the rest go through the coarse index.
   auto quantized_near = [&](const Eigen::Vector3i& v, std::uint32_t entry, const Eigen::Vector3i& block_voxel0) {
@@ -170,7 +172,7 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
               const float gz = variation(q, v, Eigen::Vector3i::UnitZ(), entry, b0);
               const float g2 = gx * gx + gy * gy + gz * gz;
               if (!(g2 > 0.0f) || gz * gz >= kVerticalNormalCos2 * g2) continue;
-              ++obstacle_voxels[c];
+              if (obstacle_voxels[c] < kMinObstacleVoxels) ++obstacle_voxels[c];
               const float z = static_cast<float>(v.z()) * vs;
               if (!(values_[c] >= z)) values_[c] = z;
             }
