@@ -307,7 +307,8 @@ TEST(ImageLegend, LegendAndColorbarDrawInsideTheirSize) {
       {"estimate", kRed, tsdf_mcl::LegendEntry::Symbol::kDashedLine},
       {"particles", kRed, tsdf_mcl::LegendEntry::Symbol::kDot},
       {"unknown", Rgb{190, 190, 190}, tsdf_mcl::LegendEntry::Symbol::kBand},
-      {"pose", kRed, tsdf_mcl::LegendEntry::Symbol::kArrow}};
+      {"pose", kRed, tsdf_mcl::LegendEntry::Symbol::kArrow},
+      {"start", kRed, tsdf_mcl::LegendEntry::Symbol::kRing}};
   const Vector2f size = tsdf_mcl::legend_size(entries, 1.5f);
   tsdf_mcl::draw_legend(image, 5.0f, 5.0f, entries, 1.5f);
   EXPECT_NE(image.at(5, 5), colors::kWhite);  // frame

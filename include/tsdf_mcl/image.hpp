@@ -177,7 +177,7 @@ Eigen::Vector2f draw_colorbar(Image& image, float x, float y, float bar_width, c
 
 // One row of a legend.
 struct LegendEntry {
-  enum class Symbol { kLine, kDashedLine, kDot, kBand, kArrow };
+  enum class Symbol { kLine, kDashedLine, kDot, kRing, kBand, kArrow };
   std::string label;
   Rgb color;
   Symbol symbol = Symbol::kLine;

@@ -628,6 +628,9 @@ void draw_legend(Image& image, float x, float y, const std::vector<LegendEntry>&
       case LegendEntry::Symbol::kDot:
         image.fill_circle((a + b) / 2.0f, 2.5f * text_scale, e.color);
         break;
+      case LegendEntry::Symbol::kRing:
+        image.stroke_circle((a + b) / 2.0f, 2.5f * text_scale, e.color, 0.8f * text_scale);
+        break;
       case LegendEntry::Symbol::kArrow: {
         const float h = kCapHeight * text_scale / 2.0f + 1.0f;
         const Eigen::Vector2f c = (a + b) / 2.0f;

@@ -485,6 +485,10 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
     legend.push_back({t.label, mix(colors::kWhite, t.color, t.alpha),
                       t.dashed ? LegendEntry::Symbol::kDashedLine : LegendEntry::Symbol::kLine});
   }
+  if (!trajectories.empty()) {
+    legend.push_back({"start", colors::kText, LegendEntry::Symbol::kRing});
+    legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
+  }
   if (has_particles) legend.push_back({"particles", options.particle_color, LegendEntry::Symbol::kDot});
   std::vector<std::string> seen_markers;
   for (const auto& panel : panels) {

@@ -204,7 +204,10 @@ Image render_plot(const LinePlot& plot) {
     if (h.dashed) image.draw_dashed_line({px0, y}, {px1, y}, h.color, 1.5f, 8.0f);
     else image.draw_line({px0, y}, {px1, y}, h.color, 1.5f);
     if (!h.label.empty() && y >= py0 && y <= py1) {
-      const bool below = y - py0 < line;  // no room above at the top border
+      // Labels face away from zero (or the middle, if zero is off the plot), so that the two labels of a band like
+      // +-0.3 m sit outside it instead of on top of each other; at a border they turn inwards.
+      const double centre = y_lo < 0.0 && y_hi > 0.0 ? 0.0 : (y_lo + y_hi) / 2.0;
+      const bool below = (h.y < centre && py1 - y >= line) || y - py0 < line;
       image.draw_text(px1 - pad, below ? y + pad / 2.0f : y - pad / 2.0f, h.label,
                       {ts, h.color, HAlign::kRight, below ? VAlign::kTop : VAlign::kBottom, false});
     }

@@ -115,7 +115,7 @@ int run_render(int argc, char** argv) {
   }
   o.expect_positional(0, "options only, e.g. --map MAP -o OUT.png");
 
-  // Everything the command line can get wrong is checked before the map is loaded.
+  // Option errors are reported before the (possibly large) map is loaded.
   if (!o.has("output")) throw Error("render: missing -o OUT.png (the image to write)");
   const fs::path output = o.text("output");
   std::string extension = output.extension().string();
@@ -154,8 +154,7 @@ int run_render(int argc, char** argv) {
   view_options.particle_headings = o.flag("headings");
   if (o.has("title")) view_options.title = o.text("title");
 
-  const std::string map_file = o.text("map");
-  const TsdfMap map = load_map(map_file);
+  const TsdfMap map = load_map(o.text("map"));
 
   std::vector<TrajectoryOverlay> trajectories;
   std::optional<Dataset> truth;
