@@ -395,7 +395,7 @@ Eigen::Vector4f Image::draw_text(float x, float y, const std::string& text, cons
   const Eigen::Vector2f corner_a = place(0.0f, 0.0f), corner_b = place(size.x(), size.y());
   const Eigen::Vector4f box(std::min(corner_a.x(), corner_b.x()), std::min(corner_a.y(), corner_b.y()),
                             std::max(corner_a.x(), corner_b.x()), std::max(corner_a.y(), corner_b.y()));
-  if (t.empty() || empty()) return box;
+  if (t.empty() || empty() || !(style.scale > 0.0f)) return box;
 
   // stb_easy_font emits at most a few dozen quads of 64 bytes per glyph.
   std::vector<char> vertices(t.size() * 64 * 40 + 64);
