@@ -1,8 +1,205 @@
+// tsdf-mcl render: a map seen from above with ground truth, estimated trajectories and particle snapshots, as PNG.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iterator>
+#include <optional>
+#include <string>
+#include <vector>
+
 #include "commands.hpp"
+#include "options.hpp"
+#include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/image.hpp"
+#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/map_view.hpp"
+#include "tsdf_mcl/particle_snapshot.hpp"
 
 namespace tsdf_mcl::cli {
+namespace fs = std::filesystem;
+namespace {
 
-int run_render(int, char**) { throw Error("render: not implemented yet"); }
+std::vector<OptionSpec> render_options() {
+  return {
+      {"map", "MAP", "", "map file (.tsdf) to draw"},
+      {"z-min", "M", "", "projection: lowest voxel height to include (m) [default: the map's bottom]"},
+      {"z-max", "M", "", "projection: highest voxel height to include (m) [default: the map's top]"},
+      {"slice", "Z", "", "draw the horizontal slice at height Z (m) instead of a projection"},
+      {"ground-truth", "DIR", "", "dataset folder whose poses.txt is drawn as the ground truth trajectory"},
+      {"estimate", "FILE[,FILE..]", "", "estimated trajectories (TUM: t x y z qx qy qz qw), comma-separated"},
+      {"particles", "FILE[,FILE..]", "", "particle snapshots written by localize, comma-separated: one panel each"},
+      {"captions", "TEXT[,TEXT..]", "", "one caption per particle snapshot [default: (a) FILE, (b) FILE, ...]"},
+      {"headings", "", "", "draw each particle's heading as a short tick"},
+      {"pixel", "M", "", "metres per pixel [default: fit --panel-size]"},
+      {"panel-size", "PX", "0", "larger side of each panel in pixels when --pixel is not given; 0 = 1000 for one "
+                                "panel, 700 each for several"},
+      {"title", "TEXT", "", "title above the picture"},
+      {"output", "FILE.png", "", "image to write (same as -o FILE.png)"},
+  };
+}
+
+// A trajectory's legend name: the file's stem, or its folder's name for localize's OUT/trajectory.tum.
+std::string trajectory_name(const fs::path& file) {
+  const std::string stem = file.stem().string();
+  const std::string parent = file.parent_path().filename().string();
+  if (stem == "trajectory" && !parent.empty() && parent != "." && parent != "..") return parent;
+  return stem;
+}
+
+// Position and heading error of the estimate's last pose against the ground truth pose nearest in time, if one is
+// within half a ground-truth period (the estimate's stamps are the dataset's scan times).
+std::string final_error_note(const std::vector<StampedPose>& estimate, const Dataset& truth) {
+  const auto& times = truth.times();
+  if (estimate.empty() || times.size() < 2) return "";
+  std::vector<double> periods;
+  for (std::size_t i = 1; i < times.size(); ++i) periods.push_back(std::abs(times[i] - times[i - 1]));
+  std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(periods.size() / 2), periods.end());
+  const double tolerance = 0.5 * periods[periods.size() / 2];
+  const StampedPose& last = estimate.back();
+  const auto nearest = std::min_element(times.begin(), times.end(), [&](double a, double b) {
+    return std::abs(a - last.time) < std::abs(b - last.time);
+  });
+  if (std::abs(*nearest - last.time) > tolerance) return "";
+  const Pose& gt = truth.pose(static_cast<std::size_t>(nearest - times.begin()));
+  const double position = (last.pose.translation() - gt.translation()).norm();
+  const double angle = rotation_angle_between(last.pose.linear(), gt.linear()) * 180.0 / EIGEN_PI;
+  char note[96];
+  std::snprintf(note, sizeof(note), " (final error %.2f m, %.1f deg)", position, angle);
+  return note;
+}
+
+// The filter's estimate where the particles agree on one place: their weighted mean position with the weighted
+// circular mean of their headings; nullopt while they are spread out (a mean between modes is nowhere).
+std::optional<Pose> concentrated_mean(const ParticleSnapshot& snapshot, double max_spread) {
+  double total = 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Vector2d heading = Eigen::Vector2d::Zero();
+  for (const auto& p : snapshot.particles) {
+    total += p.weight;
+    mean += p.weight * p.position.cast<double>();
+    const Eigen::Vector3f forward = p.orientation * Eigen::Vector3f::UnitX();
+    heading += p.weight * Eigen::Vector2d(forward.x(), forward.y());
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  mean /= total;
+  double spread = 0.0;
+  for (const auto& p : snapshot.particles) spread += p.weight * (p.position.cast<double>() - mean).head<2>().squaredNorm();
+  if (std::sqrt(spread / total) > max_spread || heading.norm() < 1e-9) return std::nullopt;
+  return pose_from_xyz_rpy(mean.x(), mean.y(), mean.z(), 0.0, 0.0, std::atan2(heading.y(), heading.x()));
+}
+
+}  // namespace
+
+int run_render(int argc, char** argv) {
+  // "-o FILE" is the command-line contract's short form of --output.
+  std::vector<std::string> args(argv, argv + argc);
+  for (auto& a : args) {
+    if (a == "-o") a = "--output";
+  }
+  std::vector<char*> arg_ptrs;
+  for (auto& a : args) arg_ptrs.push_back(a.data());
+  const Options o("render",
+                  "tsdf-mcl render --map MAP [--z-min M --z-max M | --slice Z] [--ground-truth DIR]\n"
+                  "                       [--estimate FILE.tum,..] [--particles FILE,.. [--captions A,..]] [--pixel M]\n"
+                  "                       [--title TEXT] -o OUT.png\n"
+                  "Draws the map from above like a floor plan (obstacles coloured by height, free space white, unobserved\n"
+                  "space grey) with the trajectories and particles over it; several particle snapshots become panels side\n"
+                  "by side.",
+                  render_options(), argc, arg_ptrs.data(), 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  o.expect_positional(0, "options only, e.g. --map MAP -o OUT.png");
+
+  // Option errors are reported before the (possibly large) map is loaded.
+  if (!o.has("output")) throw Error("render: missing -o OUT.png (the image to write)");
+  const fs::path output = o.text("output");
+  std::string extension = output.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (extension != ".png") throw Error("render: the output must be a .png file, got " + output.string());
+  std::error_code ec;
+  if (output.has_parent_path() && !fs::is_directory(output.parent_path(), ec)) {
+    throw Error("render: cannot write " + output.string() + ": folder " + output.parent_path().string() +
+                " does not exist");
+  }
+  MapRasterOptions raster_options;
+  if (o.has("z-min")) raster_options.z_min = static_cast<float>(o.number("z-min"));
+  if (o.has("z-max")) raster_options.z_max = static_cast<float>(o.number("z-max"));
+  if (o.has("slice")) {
+    if (o.has("z-min") || o.has("z-max")) throw Error("render: --slice draws one height; it excludes --z-min/--z-max");
+    raster_options.slice_z = static_cast<float>(o.number("slice"));
+  }
+  MapViewOptions view_options;
+  if (o.has("pixel")) {
+    view_options.metres_per_pixel = o.number("pixel");
+    if (!(view_options.metres_per_pixel > 0.0)) throw Error("render: --pixel must be a positive number of metres");
+  }
+  const std::vector<std::string> particle_files = o.has("particles") ? o.list("particles") : std::vector<std::string>{};
+  std::vector<std::string> captions;
+  if (o.has("captions")) {
+    if (particle_files.empty()) throw Error("render: --captions needs --particles (one caption per snapshot)");
+    captions = o.list("captions");
+    if (captions.size() != particle_files.size()) {
+      throw Error("render: " + std::to_string(captions.size()) + " captions for " +
+                  std::to_string(particle_files.size()) + " particle snapshots");
+    }
+  }
+  const std::size_t panel_size = o.count("panel-size");
+  view_options.panel_pixels = panel_size != 0 ? static_cast<int>(std::min<std::size_t>(panel_size, 32768))
+                                              : particle_files.size() > 1 ? 700 : 1000;
+  view_options.particle_headings = o.flag("headings");
+  if (o.has("title")) view_options.title = o.text("title");
+
+  const TsdfMap map = load_map(o.text("map"));
+
+  std::vector<TrajectoryOverlay> trajectories;
+  std::optional<Dataset> truth;
+  if (o.has("ground-truth")) {
+    truth = Dataset::open(o.text("ground-truth"));
+    if (!truth->has_poses()) throw Error("render: --ground-truth " + o.text("ground-truth") + " has no poses.txt");
+    // Wide and translucent, under the estimates: where an estimate leaves the band, it is wrong there.
+    trajectories.push_back({"ground truth", truth->poses(), colors::kBlack, 7.0f, 0.3f, false});
+  }
+  if (o.has("estimate")) {
+    // Colours of the categorical palette without red (the particles') and grey (unobserved space).
+    static constexpr std::size_t kEstimateColors[] = {0, 1, 4, 2, 6, 9, 5, 8};
+    const std::vector<std::string> files = o.list("estimate");
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      const std::vector<StampedPose> stamped = read_tum(files[i]);
+      if (stamped.empty()) throw Error("render: estimate " + files[i] + " holds no poses");
+      TrajectoryOverlay t;
+      t.label = trajectory_name(files[i]) + (truth ? final_error_note(stamped, *truth) : "");
+      t.color = palette_color(kEstimateColors[i % std::size(kEstimateColors)]);
+      t.width = 2.0f;
+      for (const auto& s : stamped) t.poses.push_back(s.pose);
+      trajectories.push_back(std::move(t));
+    }
+  }
+  std::vector<MapPanel> panels;
+  for (std::size_t i = 0; i < particle_files.size(); ++i) {
+    MapPanel panel;
+    panel.particles = read_particle_snapshot(particle_files[i]);
+    panel.caption = captions.empty() ? fs::path(particle_files[i]).stem().string() : captions[i];
+    if (captions.empty() && particle_files.size() > 1) {
+      panel.caption = "(" + std::string(1, static_cast<char>('a' + i % 26)) + ") " + panel.caption;
+    }
+    panel.caption += "  -  " + std::to_string(panel.particles.particles.size()) + " particles";
+    if (const auto mean = concentrated_mean(panel.particles, 0.5)) {
+      panel.markers.push_back({*mean, palette_color(0), "particle mean"});
+    }
+    panels.push_back(std::move(panel));
+  }
+
+  const MapRaster raster(map, raster_options);
+  const MapFigure figure = render_map_view(raster, trajectories, panels, view_options);
+  save_png(figure.image, output);
+  std::printf("wrote %s (%d x %d pixels, %.3f m per pixel)\n", output.string().c_str(), figure.image.width(),
+              figure.image.height(), figure.panels.front().metres_per_pixel());
+  return 0;
+}
 
 }  // namespace tsdf_mcl::cli
