@@ -8,7 +8,8 @@
 #include "options.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/line_plot.hpp"
+#include "tsdf_mcl/image.hpp"
+#include "tsdf_mcl/plot.hpp"
 #include "tsdf_mcl/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::cli {
@@ -21,9 +22,8 @@ constexpr double kDeg = 57.29577951308232;
 LinePlot error_plot(const TrajectoryMetrics& m, std::size_t first, const std::string& title) {
   LinePlot plot;
   plot.title = title;
-  plot.x_label = "time [s]";
   plot.y_label = "error [m]";
-  const Rgb colors[4] = {{214, 39, 40}, {44, 160, 44}, {31, 119, 180}, {40, 40, 40}};
+  const Rgb colors[4] = {rgb_hex(0xd62728), rgb_hex(0x2ca02c), rgb_hex(0x1f77b4), rgb_hex(0x222222)};
   const char* labels[4] = {"x", "y", "z", "norm"};
   for (int a = 0; a < 4; ++a) {
     PlotSeries s;
@@ -39,13 +39,22 @@ LinePlot error_plot(const TrajectoryMetrics& m, std::size_t first, const std::st
   return plot;
 }
 
-void plot_errors(const TrajectoryMetrics& m, const std::string& file) {
-  std::vector<LinePlot> panels = {error_plot(m, 0, "translation error per axis")};
-  if (m.converged) {
-    panels.front().markers.emplace_back(m.convergence_time, "converged");
-    panels.push_back(error_plot(m, m.convergence_index, "after convergence"));
+void plot_errors(const TrajectoryMetrics& m, const MetricsOptions& mo, const std::string& file) {
+  LinePlot all = error_plot(m, 0, "translation error per axis");
+  char band[32];
+  std::snprintf(band, sizeof(band), "%.2f m", mo.max_translation_error);
+  all.horizontal_lines = {{mo.max_translation_error, std::string("+") + band}, {-mo.max_translation_error, std::string("-") + band}};
+  if (!m.converged) {
+    write_plot_png(all, file);
+    return;
   }
-  write_plots_png(panels, file);
+  all.markers.emplace_back(m.convergence_time, "converged");
+  const Image top = render_plot(all);
+  const Image bottom = render_plot(error_plot(m, m.convergence_index, "after convergence"));
+  Image both(top.width(), top.height() + bottom.height());
+  both.blit(top, 0, 0);
+  both.blit(bottom, 0, top.height());
+  save_png(both, file);
 }
 
 }  // namespace
@@ -102,7 +111,7 @@ int run_evaluate(int argc, char** argv) {
     j["after_convergence"] = nullptr;
   }
   if (const auto plot = o.maybe("plot")) {
-    plot_errors(m, *plot);
+    plot_errors(m, mo, *plot);
     j["plot"] = *plot;
   }
   std::printf("%s\n", j.dump(2).c_str());

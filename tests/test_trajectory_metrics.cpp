@@ -1,12 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <vector>
 
-#include "map_test_helpers.hpp"
 #include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/line_plot.hpp"
 #include "tsdf_mcl/trajectory_metrics.hpp"
 
 namespace tsdf_mcl {
@@ -70,53 +67,6 @@ TEST(TrajectoryMetrics, MatchesTimestampsExactlyOrNearestWithinTolerance) {
   EXPECT_THROW(evaluate_trajectory(est, t.times, t.poses), Error);
   EXPECT_THROW(evaluate_trajectory({}, t.times, t.poses), Error);
   EXPECT_THROW(evaluate_trajectory(est, t.times, {}), Error);
-}
-
-TEST(LinePlot, NiceTicks) {
-  EXPECT_EQ(nice_ticks(0.0, 10.0, 5), (std::vector<double>{0, 2, 4, 6, 8, 10}));
-  const std::vector<double> t = nice_ticks(-0.33, 0.71, 6);
-  ASSERT_GE(t.size(), 4u);
-  EXPECT_NEAR(t[1] - t[0], 0.2, 1e-12);
-  EXPECT_GE(t.front(), -0.33);
-  EXPECT_LE(t.back(), 0.71);
-}
-
-// The plot draws every series in its colour (lines and legend) and writes a PNG.
-TEST(LinePlot, DrawsSeriesAndWritesPng) {
-  LinePlot plot;
-  plot.title = "translation error per axis";
-  plot.x_label = "time [s]";
-  plot.y_label = "error [m]";
-  const Rgb red{214, 39, 40}, blue{31, 119, 180};
-  PlotSeries a{"x", red, {}, {}}, b{"z", blue, {}, {}};
-  for (int i = 0; i < 50; ++i) {
-    a.x.push_back(i);
-    a.y.push_back(0.1 * std::sin(0.2 * i));
-    b.x.push_back(i);
-    b.y.push_back(0.05 * i - 1.0);
-  }
-  plot.series = {a, b};
-  plot.markers.emplace_back(12.0, "converged");
-  const std::vector<std::uint8_t> rgb = render_plot(plot);
-  ASSERT_EQ(rgb.size(), static_cast<std::size_t>(plot.width * plot.height * 3));
-  auto count = [&](const Rgb& c) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < rgb.size(); i += 3) n += rgb[i] == c[0] && rgb[i + 1] == c[1] && rgb[i + 2] == c[2];
-    return n;
-  };
-  EXPECT_GT(count(red), 300u);
-  EXPECT_GT(count(blue), 300u);
-  EXPECT_GT(count(Rgb{0, 0, 0}), 2000u);  // axes, ticks, text
-
-  test::TempDir dir;
-  write_plot_png(plot, dir / "plot.png");
-  const std::string png = test::read_bytes(dir / "plot.png");
-  ASSERT_GT(png.size(), 1000u);
-  EXPECT_EQ(png.substr(1, 3), "PNG");
-
-  plot.series[0].y.pop_back();
-  EXPECT_THROW(render_plot(plot), Error);
-  EXPECT_THROW(write_plot_png(LinePlot{}, dir / "empty.png"), Error);
 }
 
 }  // namespace
