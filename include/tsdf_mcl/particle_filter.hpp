@@ -118,6 +118,8 @@ class ParticleFilter {
   const FilterParameters& params() const { return params_; }
   // The active particle set (views stay valid until the next update or initialization).
   ParticleArrays particles() const { return evaluator_.particles(); }
+  // The active particles' weights, normalized (uniform right after resampling).
+  std::vector<double> particle_weights() const;
   // Number of free-space voxels global initialization and recovery sample from (builds the table).
   std::size_t free_space_voxels();
 

@@ -73,6 +73,16 @@ const FreeSpaceSampler& ParticleFilter::sampler() {
 
 std::size_t ParticleFilter::free_space_voxels() { return sampler().candidate_voxels(); }
 
+std::vector<double> ParticleFilter::particle_weights() const {
+  std::vector<double> w(prior_log_weight_.begin(), prior_log_weight_.begin() + static_cast<std::ptrdiff_t>(count_));
+  if (w.empty()) return w;
+  const double max = *std::max_element(w.begin(), w.end());
+  double sum = 0.0;
+  for (double& v : w) sum += (v = std::exp(v - max));
+  for (double& v : w) v /= sum;
+  return w;
+}
+
 void ParticleFilter::start(std::size_t count) {
   count_ = count;
   std::fill_n(prior_log_weight_.begin(), count_, 0.0);

@@ -115,6 +115,19 @@ int run_evaluate(int argc, char** argv) {
     j["plot"] = *plot;
   }
   std::printf("%s\n", j.dump(2).c_str());
+  // The same in words, for a person watching (stdout is often redirected to a file).
+  if (m.converged) {
+    std::fprintf(stderr,
+                 "evaluate: %zu scans; converged at scan %zu (%.1f s after the first); %.1f %% localized; after "
+                 "convergence ATE %.3f m, rotation RMSE %.2f deg, worst %.3f m / %.2f deg\n",
+                 m.errors.size(), m.errors[m.convergence_index].truth_index, m.convergence_time,
+                 100.0 * m.localized_fraction, m.ate_rmse, m.rotation_rmse * kDeg, m.max_translation_error,
+                 m.max_rotation_error * kDeg);
+  } else {
+    std::fprintf(stderr, "evaluate: %zu scans; NOT converged (the last estimate is off by %.3f m / %.2f deg); %.1f %% localized\n",
+                 m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
+                 100.0 * m.localized_fraction);
+  }
   return 0;
 }
 

@@ -20,6 +20,7 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_io.hpp"
 #include "tsdf_mcl/particle_filter.hpp"
+#include "tsdf_mcl/particle_snapshot.hpp"
 #include "tsdf_mcl/scan_preprocessing.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
 
@@ -62,6 +63,7 @@ std::vector<OptionSpec> localize_options() {
       {"backend", "NAME", "auto", "sensor update on auto (Vulkan if a device works, else CPU), vulkan or cpu"},
       {"cpu_threads", "N", "0", "threads of the CPU backend (0 = all)"},
       {"seed", "N", "0", "random seed; results are reproducible for a seed and backend"},
+      {"snapshot_every", "K", "0", "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl render --particles"},
       // KLD-sampling and resampling.
       {"min_particles", "N", std::to_string(f.kld.min_particles), "KLD-sampling: fewest particles"},
       {"max_particles", "N", std::to_string(f.kld.max_particles), "KLD-sampling: most particles"},
@@ -288,6 +290,19 @@ nlohmann::json pose_json(const Pose& p) {
           {"roll_deg", rpy.x() * kDeg}, {"pitch_deg", rpy.y() * kDeg}, {"yaw_deg", rpy.z() * kDeg}};
 }
 
+void write_snapshot(const ParticleFilter& filter, const fs::path& file) {
+  const ParticleArrays p = filter.particles();
+  const std::vector<double> w = filter.particle_weights();
+  ParticleSnapshot snapshot;
+  snapshot.particles.resize(w.size());
+  for (std::size_t i = 0; i < w.size(); ++i) {
+    snapshot.particles[i].position = p.position(i);
+    snapshot.particles[i].orientation = p.rotation(i);
+    snapshot.particles[i].weight = static_cast<float>(w[i]);
+  }
+  write_particle_snapshot(file, snapshot);
+}
+
 // NaN (no GPU timestamps) is not valid JSON.
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
@@ -379,6 +394,13 @@ int run_localize(int argc, char** argv) {
                  filter.free_space_voxels());
   }
   const double init_ms = ms_since(t_init);
+  const std::size_t snapshot_every = o.count("snapshot_every");
+  const fs::path snapshot_dir = out_dir / "snapshots";
+  if (snapshot_every > 0) {
+    fs::create_directories(snapshot_dir, ec);
+    if (ec) throw Error("cannot create " + snapshot_dir.string() + ": " + ec.message());
+    write_snapshot(filter, snapshot_dir / "init.bin");
+  }
 
   ScanPreprocessor preprocessor(scan_params);
   std::vector<StampedPose> trajectory;
@@ -459,6 +481,12 @@ int run_localize(int argc, char** argv) {
     j["modes"] = step.estimate.modes;
     j["std_position_m"] = step.estimate.std_position;
     j["std_rotation_deg"] = step.estimate.std_rotation * kDeg;
+    if (snapshot_every > 0 && k % snapshot_every == 0) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "scan_%06zu.bin", idx);
+      write_snapshot(filter, snapshot_dir / name);
+      j["snapshot"] = (snapshot_dir / name).string();
+    }
     per_scan.push_back(std::move(j));
 
     if (step.updated) {
