@@ -195,10 +195,12 @@ TEST(Kidnapping, FilterRecoversWithoutARestart) {
   }
   EXPECT_GT(injected, 1000u);
   ASSERT_LE(recovered, jump + 30) << "not re-localized within 30 updates";
+  // The track settles within a few updates of being found and stays.
   for (std::size_t k = recovered + 2; k < r.steps.size(); ++k) {
-    EXPECT_LT(error_t(r, k), 0.15) << "step " << k;
+    EXPECT_LT(error_t(r, k), 0.2) << "step " << k;
     EXPECT_LT(error_r(r, k), 5 * kDeg) << "step " << k;
   }
+  EXPECT_LT(error_t(r, r.steps.size() - 1), 0.05);
   EXPECT_LE(r.steps.back().next_particles, 2000u) << "back to a small set once found";
 }
 

@@ -3,8 +3,8 @@
 // cloud. While the belief is multimodal (symmetric rooms, early global localization) the mean of all
 // particles lies between the modes, in a place no particle supports.
 //
-// Modes are connected components of occupied cells of a grid over (x, y, z, yaw) (cells touching in any of the
-// 80 neighbour directions, yaw wrapping around); the component with the largest total weight wins. Its
+// Modes are connected components of occupied cells of a grid over (x, y, z, yaw) (cells sharing a face, yaw
+// wrapping around); the component with the largest total weight wins. Its
 // rotation mean is the eigenvector of the largest eigenvalue of Σ w q qᵀ (Markley et al. 2007), which needs
 // no sign alignment and is exact for the chordal distance.
 #include <Eigen/Core>

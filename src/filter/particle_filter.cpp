@@ -126,18 +126,19 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
   double beta = 1.0;
   double ess = tempered(prior_log_weight_.data(), p.log_weight, n, 1.0, weights_.data());
   if (ess < target) {
-    // ESS falls as beta grows (the weights sharpen): bisect for the largest beta that keeps the target.
-    double lo = 0.0;
-    double hi = 1.0;
-    for (int iteration = 0; iteration < 24; ++iteration) {
+    // ESS falls as beta grows (the weights sharpen): bisect for the largest beta that keeps the target, in
+    // log(beta) because useful values span orders of magnitude (1e-4 for a global belief of 100k particles).
+    double lo = std::log(1e-7);
+    double hi = 0.0;
+    for (int iteration = 0; iteration < 16; ++iteration) {
       const double mid = 0.5 * (lo + hi);
-      if (tempered(prior_log_weight_.data(), p.log_weight, n, mid, weights_.data()) >= target) {
+      if (tempered(prior_log_weight_.data(), p.log_weight, n, std::exp(mid), weights_.data()) >= target) {
         lo = mid;
       } else {
         hi = mid;
       }
     }
-    beta = lo > 0.0 ? lo : hi;
+    beta = std::exp(lo);
     ess = tempered(prior_log_weight_.data(), p.log_weight, n, beta, weights_.data());
   }
   for (std::size_t i = 0; i < n; ++i) prior_log_weight_[i] += beta * p.log_weight[i];

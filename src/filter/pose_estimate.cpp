@@ -124,16 +124,17 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     cell_weight_[cell] += w[i];
   }
 
-  // Connected components: each cell joins its occupied neighbours (half the 80 offsets suffice, the other
-  // half is the same pairs seen from the other side).
+  // Connected components over face neighbours (one step along one axis; yaw wraps). Each cell looks up the
+  // positive side only: the negative side is the same pairs seen from the other cell. The 80 diagonal
+  // neighbours would join a little more, at ten times the cost, for the 100k cells of a global belief.
   const auto cells = static_cast<std::uint32_t>(cells_.size());
   parent_.resize(cells);
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = c;
   for (std::uint32_t c = 0; c < cells; ++c) {
-    for (int o = 41; o < 81; ++o) {  // offsets after the centre (index 40) in base-3 order
-      const Eigen::Vector4i d(o % 3 - 1, (o / 3) % 3 - 1, (o / 9) % 3 - 1, (o / 27) % 3 - 1);
-      Eigen::Vector4i nb = cells_[c] + d;
-      nb[3] = (nb[3] + yaw_cells_) % yaw_cells_;
+    for (int axis = 0; axis < 4; ++axis) {
+      Eigen::Vector4i nb = cells_[c];
+      nb[axis] += 1;
+      nb[3] = nb[3] % yaw_cells_;
       const std::uint32_t other = lookup(nb, false);
       if (other == kNoCell) continue;
       const std::uint32_t ra = find(c);
