@@ -42,6 +42,8 @@ struct PoseEstimate {
   std::size_t modes = 0;         // connected components found
   double std_position = 0.0;     // m, sqrt of the largest position-covariance eigenvalue
   double std_rotation = 0.0;     // rad, likewise for rotation
+  // The mode is concentrated (PoseEstimateOptions) and, in ParticleFilter, recovery does not consider the
+  // track lost.
   bool converged = false;
 };
 

@@ -265,7 +265,6 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   prepare_weights(n, step);
   const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
   estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
-  step.estimate = estimate_;
   step.fit = belief_fit(n, summary, points.size());
   // The fit averages start at the first convergence: a belief spread over the map fits badly by nature, and
   // a long-term average that remembers that phase would set the bar too low to ever notice a wrong lock.
@@ -273,6 +272,9 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   if (ever_converged_) step.random_share = recovery_.update(step.fit);
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
+  // A concentrated cloud whose fit has collapsed is concentrated in the wrong place.
+  if (step.random_share > 0.0) estimate_.converged = false;
+  step.estimate = estimate_;
   step.timings.reduce_ms = ms_since(t0);
 
   if (params_.motion.type == MotionModelType::kConstantVelocity) {
