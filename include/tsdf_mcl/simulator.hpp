@@ -65,6 +65,7 @@ class RayCaster {
   struct Hit {
     float distance = std::numeric_limits<float>::infinity();  // infinity: no hit within the limit
     Eigen::Vector3f normal = Eigen::Vector3f::Zero();          // unit, facing the ray's origin
+    int triangle = -1;                                         // index into the mesh's triangles
     bool hit() const { return distance < std::numeric_limits<float>::infinity(); }
   };
 
@@ -142,7 +143,7 @@ struct SimulationOptions {
   RobotModel robot;
   ScanNoise noise;
   OdometryNoise odometry;
-  // Keep a sweep only once the sensor moved this far (m) or turned 10 deg since the last kept one; 0 keeps
+  // Keep a sweep only once the sensor moved this far (m) or turned 30 deg since the last kept one; 0 keeps
   // every sweep. A mapping run needs no 20 scans a second: its scans only build the map.
   double scan_spacing_m = 0.0;
   std::size_t obstacles = 0;     // unmapped people-sized boxes near a test route

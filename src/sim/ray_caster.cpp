@@ -16,7 +16,8 @@ void check_device(RTCDevice device, const char* what) {
   if (code != RTC_ERROR_NONE) throw Error(std::string("Embree failed to ") + what + " (error " + std::to_string(code) + ")");
 }
 
-RayCaster::Hit hit_from(float tfar, unsigned geom_id, float nx, float ny, float nz, const Eigen::Vector3f& direction) {
+RayCaster::Hit hit_from(float tfar, unsigned geom_id, unsigned prim_id, float nx, float ny, float nz,
+                        const Eigen::Vector3f& direction) {
   RayCaster::Hit hit;
   if (geom_id == RTC_INVALID_GEOMETRY_ID) return hit;
   Eigen::Vector3f n(nx, ny, nz);
@@ -26,6 +27,7 @@ RayCaster::Hit hit_from(float tfar, unsigned geom_id, float nx, float ny, float 
   if (n.dot(direction) > 0.0f) n = -n;
   hit.distance = tfar;
   hit.normal = n;
+  hit.triangle = static_cast<int>(prim_id);
   return hit;
 }
 
@@ -115,7 +117,7 @@ RayCaster::Hit RayCaster::cast(const Eigen::Vector3f& origin, const Eigen::Vecto
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(impl_->scene, &context, &rh);
-  return hit_from(rh.ray.tfar, rh.hit.geomID, rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z, direction);
+  return hit_from(rh.ray.tfar, rh.hit.geomID, rh.hit.primID, rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z, direction);
 }
 
 void RayCaster::cast_fan(const Eigen::Vector3f& origin, const Eigen::Vector3f* directions, std::size_t count,
@@ -150,7 +152,7 @@ void RayCaster::cast_fan(const Eigen::Vector3f& origin, const Eigen::Vector3f* d
     }
     rtcIntersect16(valid, impl_->scene, &context, &packet);
     for (std::size_t k = 0; k < n; ++k) {
-      hits[first + k] = hit_from(packet.ray.tfar[k], packet.hit.geomID[k], packet.hit.Ng_x[k], packet.hit.Ng_y[k],
+      hits[first + k] = hit_from(packet.ray.tfar[k], packet.hit.geomID[k], packet.hit.primID[k], packet.hit.Ng_x[k], packet.hit.Ng_y[k],
                                  packet.hit.Ng_z[k], directions[first + k]);
     }
   }

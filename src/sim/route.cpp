@@ -17,7 +17,7 @@ using Eigen::Vector2d;
 constexpr int kSteps[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr double kSampleSpacing = 0.05;  // m between route samples
-constexpr double kCoverageRadius = 3.0;  // m: every free cell of a mapping route is this close to a waypoint
+constexpr double kCoverageRadius = 4.5;  // m: every free cell of a mapping route is this close to a waypoint
 constexpr double kRampApproach = 1.2;    // m driven on the level floor before and after a ramp
 
 float step_length(int s, double cell) { return static_cast<float>((s < 4 ? 1.0 : M_SQRT2) * cell); }
@@ -392,7 +392,8 @@ Pose Route::base_pose(double time) const {
 Route Route::truncated(double max_duration, double max_length) const {
   std::vector<Sample> kept;
   for (const Sample& s : samples_) {
-    if ((max_duration > 0.0 && s.time > max_duration) || (max_length > 0.0 && s.distance > max_length)) break;
+    const bool beyond = (max_duration > 0.0 && s.time > max_duration) || (max_length > 0.0 && s.distance > max_length);
+    if (beyond && kept.size() >= 2) break;
     kept.push_back(s);
   }
   return Route(std::move(kept), waypoints_);

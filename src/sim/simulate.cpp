@@ -24,7 +24,7 @@ namespace {
 constexpr double kDefaultTestLength = 60.0;  // m, when neither a duration nor a length is given
 constexpr double kObstacleSize = 0.5;        // m, footprint of a standing person
 constexpr double kObstacleHeight = 1.8;
-constexpr double kScanSpacingTurn = 10.0 * M_PI / 180.0;  // a turn that keeps a scan despite --scan-spacing
+constexpr double kScanSpacingTurn = 30.0 * M_PI / 180.0;  // a turn that keeps a scan despite --scan-spacing
 
 // Stream keys: one independent random stream per purpose.
 enum Stream : std::uint64_t { kObstacleStream = 10, kOdometryStream = 11, kScanNoiseStream = 12 };

@@ -45,7 +45,7 @@ int run_simulate(int argc, char** argv) {
                 {"dropout", "P", "0", "probability that a return is lost"},
                 {"odom-noise", "F", "0.1", "odometry noise relative to the motion per sweep (0: exact odometry)"},
                 {"scan-spacing", "M", "",
-                 "keep a sweep only after the sensor moved M m or turned 10 deg (0: every sweep) "
+                 "keep a sweep only after the sensor moved M m or turned 30 deg (0: every sweep) "
                  "[default: mapping 0.5, test 0]"},
                 {"obstacles", "N", "0", "unmapped people-sized boxes beside a test route"},
                 {"motion-distortion", "", "off",
@@ -92,11 +92,14 @@ int run_simulate(int argc, char** argv) {
   s.motion_distortion = o.flag("motion-distortion");
   const std::string out = o.text("output");
 
-  std::fprintf(stderr, "simulate: scene %s, lidar %s, %s route (seed %llu) -> %s\n", s.scene.c_str(), s.lidar.c_str(),
-               route.c_str(), static_cast<unsigned long long>(s.seed), out.c_str());
   const bool tty = isatty(fileno(stderr)) != 0;
   auto last_report = std::chrono::steady_clock::now();
   s.progress = [&](std::size_t done, std::size_t total) {
+    // Announced once the scene and route are ready, so that bad input ends with a single error line.
+    if (done == 1) {
+      std::fprintf(stderr, "simulate: scene %s, lidar %s, %s route (seed %llu) -> %s\n", s.scene.c_str(),
+                   s.lidar.c_str(), route.c_str(), static_cast<unsigned long long>(s.seed), out.c_str());
+    }
     const auto now = std::chrono::steady_clock::now();
     if (done != total && now - last_report < std::chrono::seconds(tty ? 0 : 5)) return;
     last_report = now;
