@@ -105,7 +105,7 @@ TriangleMesh office_scene(std::uint64_t seed = 1);
 // The ground robot that carries the sensor.
 struct RobotModel {
   double radius = 0.3;          // m, footprint for clearance checks
-  double height = 1.0;          // m of free space it needs above the floor
+  double height = 1.0;          // m of free space it needs above the floor (simulate: at least the sensor's + 0.1)
   double max_step = 0.05;       // m, largest floor step it drives over
   double max_slope_deg = 15.0;  // steepest floor it drives on
   double wheelbase = 0.5;       // m, front-back distance of the contact points that set the pitch

@@ -1,8 +1,11 @@
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <vector>
 
 #include "sim/random.hpp"
 #include "sim/route.hpp"
@@ -193,7 +196,9 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   std::string scene_description;
   TriangleMesh mesh = load_scene(options, scene_description);
   const RayCaster static_scene(mesh);
-  const RobotModel& robot = options.robot;
+  // The sensor must not poke into what the robot drives under.
+  RobotModel robot = options.robot;
+  robot.height = std::max(robot.height, robot.sensor_height + 0.1);
   const double min_floor = std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity()
                                                                : options.ground_plane_z - 0.01;
   const TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
@@ -219,32 +224,52 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   Pose base_T_sensor = Pose::Identity();
   base_T_sensor.translation().z() = robot.sensor_height;
 
-  DatasetWriter writer(out_dir);
+  // Which sweeps become scans, and their poses: sequential, as odometry integrates every sweep.
+  struct Sweep {
+    std::size_t index;
+    double time;
+    Pose start, end, odom_T_sensor;
+  };
+  std::vector<Sweep> kept;
   Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream));
-  const std::uint64_t noise_seed = mix_key(options.seed, kScanNoiseStream);
-  SimulationSummary summary;
-  std::optional<Pose> last_kept;
   for (std::size_t i = 0; i < sweeps; ++i) {
     const double t = static_cast<double>(i + 1) * period;
     const Pose world_T_base = route.base_pose(t);
     const Pose sensor_end = world_T_base * base_T_sensor;
     const Pose odom_T_sensor = odometry.step(world_T_base) * base_T_sensor;
-    if (last_kept && options.scan_spacing_m > 0.0) {
-      const Pose moved = last_kept->inverse() * sensor_end;
+    if (!kept.empty() && options.scan_spacing_m > 0.0) {
+      const Pose moved = kept.back().end.inverse() * sensor_end;
       if (moved.translation().norm() < options.scan_spacing_m &&
           Eigen::AngleAxisd(moved.linear()).angle() < kScanSpacingTurn) {
         continue;
       }
     }
-    last_kept = sensor_end;
-    const Pose sensor_start =
-        options.motion_distortion ? route.base_pose(t - period) * base_T_sensor : sensor_end;
-    const PointCloud cloud =
-        simulate_scan(scene, lidar, sensor_start, sensor_end, options.noise, mix_key(noise_seed, i));
-    writer.add(t, cloud, sensor_end, odom_T_sensor);
-    ++summary.scans;
-    summary.points += cloud.size();
-    if (options.progress) options.progress(i + 1, sweeps);
+    const Pose sensor_start = options.motion_distortion ? route.base_pose(t - period) * base_T_sensor : sensor_end;
+    kept.push_back({i, t, sensor_start, sensor_end, odom_T_sensor});
+  }
+
+  // Scans in batches, one scan per thread: a fork and join per batch rather than per scan keeps both cores
+  // busy even when other processes compete for them.
+  DatasetWriter writer(out_dir);
+  const std::uint64_t noise_seed = mix_key(options.seed, kScanNoiseStream);
+  SimulationSummary summary;
+  constexpr std::size_t kBatch = 32;
+  std::vector<PointCloud> clouds(kBatch);
+  for (std::size_t first = 0; first < kept.size(); first += kBatch) {
+    const auto count = static_cast<std::ptrdiff_t>(std::min(kBatch, kept.size() - first));
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < count; ++k) {
+      const Sweep& sw = kept[first + static_cast<std::size_t>(k)];
+      clouds[static_cast<std::size_t>(k)] =
+          simulate_scan(scene, lidar, sw.start, sw.end, options.noise, mix_key(noise_seed, sw.index));
+    }
+    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
+      const Sweep& sw = kept[first + k];
+      writer.add(sw.time, clouds[k], sw.end, sw.odom_T_sensor);
+      ++summary.scans;
+      summary.points += clouds[k].size();
+      if (options.progress) options.progress(summary.scans, kept.size());
+    }
   }
   writer.close();
 

@@ -103,7 +103,7 @@ int run_simulate(int argc, char** argv) {
     const auto now = std::chrono::steady_clock::now();
     if (done != total && now - last_report < std::chrono::seconds(tty ? 0 : 5)) return;
     last_report = now;
-    std::fprintf(stderr, tty ? "\rsimulate: sweep %zu/%zu" : "simulate: sweep %zu/%zu\n", done, total);
+    std::fprintf(stderr, tty ? "\rsimulate: scan %zu/%zu" : "simulate: scan %zu/%zu\n", done, total);
     if (tty && done == total) std::fprintf(stderr, "\n");
   };
   const sim::SimulationSummary r = sim::simulate(s, out);
