@@ -14,8 +14,8 @@
 namespace tsdf_mcl::test {
 
 // Closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
-inline Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                           const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+inline Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                           const Eigen::Vector3d& c) {
   const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0 && d2 <= 0) return a;

@@ -8,9 +8,11 @@ using tsdf_mcl::test::TempDir;
 
 TEST(SimCli, ShortRunWritesADatasetAndASummary) {
   TempDir dir;
-  const auto run = run_cli("simulate --scene office --lidar os0-64 --route test --seed 3 --length 3 --obstacles 1 "
-                           "--motion-distortion -o " + (dir / "out").string(),
-                           dir.path());
+  const auto run = run_cli(
+      "simulate --scene office --lidar os0-64 --route test --seed 3 --length 3 --obstacles 1 "
+      "--motion-distortion -o " +
+          (dir / "out").string(),
+      dir.path());
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("scans"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("route 3.0 m"), std::string::npos) << run.output;

@@ -17,7 +17,8 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 
 double elevation_deg(const Eigen::Vector3f& p) {
-  return std::atan2(static_cast<double>(p.z()), std::hypot(static_cast<double>(p.x()), static_cast<double>(p.y()))) / kDeg;
+  return std::atan2(static_cast<double>(p.z()), std::hypot(static_cast<double>(p.x()), static_cast<double>(p.y()))) /
+         kDeg;
 }
 
 }  // namespace
@@ -97,8 +98,8 @@ TEST(SimLidar, BeamTableFileIsParsedAndChecked) {
   EXPECT_THROW(LidarModel::from_name("velodyne-hdl64"), Error);
 }
 
-// Inside a box within both models' range every ray returns, so each point's elevation and azimuth must be exactly its beam's and
-// column's, whatever the sensor's orientation.
+// Inside a box within both models' range every ray returns, so each point's elevation and azimuth must be exactly its
+// beam's and column's, whatever the sensor's orientation.
 TEST(SimLidar, SimulatedPointsHaveTheModelsBeamAngles) {
   const RayCaster box(tsdf_mcl::test::box_mesh(Eigen::Vector3f(-25, -25, -25), Eigen::Vector3f(25, 25, 25)));
   ScanNoise exact;

@@ -63,13 +63,13 @@ TEST(SimRoute, TestRoutesKeepClearAndDriveOverARamp) {
       highest = std::max(highest, base.translation().z());
       if (i % 4 == 0) worst_clearance = std::min(worst_clearance, clearance_at(o.scene, base));
       // The base sits on the floor.
-      const RayCaster::Hit down = o.scene.cast((base * Eigen::Vector3d(0, 0, 0.2)).cast<float>(),
-                                               Eigen::Vector3f(0, 0, -1), 1.0f);
+      const RayCaster::Hit down =
+          o.scene.cast((base * Eigen::Vector3d(0, 0, 0.2)).cast<float>(), Eigen::Vector3f(0, 0, -1), 1.0f);
       ASSERT_TRUE(down.hit());
       worst_floor_gap = std::max(worst_floor_gap, std::abs(down.distance - 0.2 / std::cos(rpy.y())));
       if (i > 0 && samples[i].time > samples[i - 1].time) {
-        max_speed = std::max(max_speed, (samples[i].distance - samples[i - 1].distance) /
-                                             (samples[i].time - samples[i - 1].time));
+        max_speed = std::max(max_speed,
+                             (samples[i].distance - samples[i - 1].distance) / (samples[i].time - samples[i - 1].time));
       }
     }
     // The robot's radius (0.3 m) less half a grid cell's diagonal.
@@ -92,8 +92,9 @@ TEST(SimRoute, SeedsChooseRoutes) {
   for (std::size_t i = 0; i < a.samples().size(); ++i) {
     ASSERT_TRUE(a.samples()[i].world_T_base.isApprox(b.samples()[i].world_T_base, 0.0));
   }
-  EXPECT_GT((a.waypoints().front() - c.waypoints().front()).norm() + (a.waypoints().back() - c.waypoints().back()).norm(),
-            1.0);
+  EXPECT_GT(
+      (a.waypoints().front() - c.waypoints().front()).norm() + (a.waypoints().back() - c.waypoints().back()).norm(),
+      1.0);
 }
 
 TEST(SimRoute, MappingRouteCoversTheFloor) {
@@ -164,8 +165,10 @@ TEST(SimRoute, AvzBuildingHasARouteIndoors) {
     // Indoors: walls (not the ground plane) all around.
     int walls = 0;
     for (int k = 0; k < 16; ++k) {
-      const Eigen::Vector3f d(static_cast<float>(std::cos(k * M_PI / 8)), static_cast<float>(std::sin(k * M_PI / 8)), 0.0f);
-      walls += building.cast(Eigen::Vector3f(static_cast<float>(p.x()), static_cast<float>(p.y()), 0.5f), d, 100.0f).hit();
+      const Eigen::Vector3f d(static_cast<float>(std::cos(k * M_PI / 8)), static_cast<float>(std::sin(k * M_PI / 8)),
+                              0.0f);
+      walls +=
+          building.cast(Eigen::Vector3f(static_cast<float>(p.x()), static_cast<float>(p.y()), 0.5f), d, 100.0f).hit();
     }
     EXPECT_GE(walls, 13) << "route pose " << p.transpose() << " is outdoors";
   }

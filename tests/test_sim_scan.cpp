@@ -7,8 +7,8 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/simulator.hpp"
 
-using tsdf_mcl::Pose;
 using tsdf_mcl::PointCloud;
+using tsdf_mcl::Pose;
 using tsdf_mcl::TriangleMesh;
 using tsdf_mcl::sim::LidarModel;
 using tsdf_mcl::sim::RayCaster;

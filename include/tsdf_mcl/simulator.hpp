@@ -64,8 +64,8 @@ class RayCaster {
  public:
   struct Hit {
     float distance = std::numeric_limits<float>::infinity();  // infinity: no hit within the limit
-    Eigen::Vector3f normal = Eigen::Vector3f::Zero();          // unit, facing the ray's origin
-    int triangle = -1;                                         // index into the mesh's triangles
+    Eigen::Vector3f normal = Eigen::Vector3f::Zero();         // unit, facing the ray's origin
+    int triangle = -1;                                        // index into the mesh's triangles
     bool hit() const { return distance < std::numeric_limits<float>::infinity(); }
   };
 
@@ -77,8 +77,8 @@ class RayCaster {
   Hit cast(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float max_distance,
            float min_distance = 0.0f) const;
   // Rays sharing one origin (one LiDAR column), traced as packets; directions are unit vectors.
-  void cast_fan(const Eigen::Vector3f& origin, const Eigen::Vector3f* directions, std::size_t count,
-                float min_distance, float max_distance, Hit* hits) const;
+  void cast_fan(const Eigen::Vector3f& origin, const Eigen::Vector3f* directions, std::size_t count, float min_distance,
+                float max_distance, Hit* hits) const;
 
   Eigen::AlignedBox3f bounds() const;
   std::size_t triangle_count() const;
@@ -104,20 +104,20 @@ TriangleMesh office_scene(std::uint64_t seed = 1);
 
 // The ground robot that carries the sensor.
 struct RobotModel {
-  double radius = 0.3;          // m, footprint for clearance checks
-  double height = 1.0;          // m of free space it needs above the floor (simulate: at least the sensor's + 0.1)
-  double max_step = 0.05;       // m, largest floor step it drives over
-  double max_slope_deg = 15.0;  // steepest floor it drives on
-  double wheelbase = 0.5;       // m, front-back distance of the contact points that set the pitch
-  double track = 0.4;           // m, left-right distance of the contact points that set the roll
-  double sensor_height = 0.5;   // m, sensor origin above the base
-  double speed = 0.8;           // m/s, cruise speed
-  double max_turn_rate = 1.0;   // rad/s; the robot slows down in curves and turns on the spot at cusps
+  double radius = 0.3;            // m, footprint for clearance checks
+  double height = 1.0;            // m of free space it needs above the floor (simulate: at least the sensor's + 0.1)
+  double max_step = 0.05;         // m, largest floor step it drives over
+  double max_slope_deg = 15.0;    // steepest floor it drives on
+  double wheelbase = 0.5;         // m, front-back distance of the contact points that set the pitch
+  double track = 0.4;             // m, left-right distance of the contact points that set the roll
+  double sensor_height = 0.5;     // m, sensor origin above the base
+  double speed = 0.8;             // m/s, cruise speed
+  double max_turn_rate = 1.0;     // rad/s; the robot slows down in curves and turns on the spot at cusps
   double max_acceleration = 0.5;  // m/s^2
 };
 
-// Per step between two scans the true relative base motion (translation t, rotation angle a) is perturbed
-// by Gaussian noise on every axis with sigma_t = relative * (|t| + translation_floor) and
+// Per sweep the true relative base motion (translation t, rotation angle a) is perturbed by Gaussian noise on
+// every axis with sigma_t = relative * (|t| + translation_floor) and
 // sigma_r = relative * (|a| + rotation_per_meter * |t| + rotation_floor), then integrated, so the track drifts.
 struct OdometryNoise {
   double relative = 0.1;             // the paper's sigma on linear and angular velocity
@@ -134,35 +134,38 @@ struct SimulationOptions {
   // Adds a closed ground slab with its top at this height under the mesh's footprint, for meshes without a
   // floor of their own (Gazebo worlds get theirs from a ground plane); NaN: none.
   double ground_plane_z = std::numeric_limits<double>::quiet_NaN();
-  std::string lidar = "vlp16";   // "vlp16", "os0-64" or a beam table file
-  double rate_hz = 0.0;          // 0: the LiDAR's own rate (VLP-16 20 Hz, OS0-64 10 Hz)
+  std::string lidar = "vlp16";  // "vlp16", "os0-64" or a beam table file
+  double rate_hz = 0.0;         // 0: the LiDAR's own rate (VLP-16 20 Hz, OS0-64 10 Hz)
   RouteKind route = RouteKind::test;
-  std::uint64_t seed = 1;        // route, obstacles and noise
-  double duration_s = 0.0;       // >0: stop after this long
-  double length_m = 0.0;         // >0: stop after this distance (a test route is planned at least this long)
+  std::uint64_t seed = 1;  // route, obstacles and noise
+  // Where to stop (give at most one): > 0 ends the run after this much simulated time or distance driven.
+  // With neither, a test route ends after 60 m and a mapping route covers the whole floor.
+  double duration_s = 0.0;
+  double length_m = 0.0;
   RobotModel robot;
   ScanNoise noise;
   OdometryNoise odometry;
   // Keep a sweep only once the sensor moved this far (m) or turned 30 deg since the last kept one; 0 keeps
   // every sweep. A mapping run needs no 20 scans a second: its scans only build the map.
   double scan_spacing_m = 0.0;
-  std::size_t obstacles = 0;     // unmapped people-sized boxes near a test route
+  std::size_t obstacles = 0;  // unmapped people-sized boxes near a test route
   bool motion_distortion = false;
-  std::function<void(std::size_t done, std::size_t total)> progress;  // called after each scan
+  std::function<void(std::size_t written, std::size_t total)> progress;  // called after each scan written
 };
 
 struct SimulationSummary {
   std::size_t scans = 0;
   std::size_t points = 0;
   double route_length_m = 0.0;
-  double duration_s = 0.0;        // simulated time
+  double duration_s = 0.0;  // simulated time
   double traversable_area_m2 = 0.0;
   double wall_time_s = 0.0;
 };
 
-// Builds the scene, finds the traversable floor (largest connected free region), plans and drives the route
-// and writes DIR/scans/, times.txt, poses.txt (world_T_sensor), odom.txt (odom_T_sensor), scene.ply (with
-// the obstacles) and simulation.json (every parameter and count). Throws Error naming what is at fault.
+// Builds the scene, finds the traversable floor (the largest connected free region, enclosed floor first),
+// plans and drives the route, places the obstacles beside it, and writes DIR/scans/, times.txt, poses.txt
+// (world_T_sensor), odom.txt (odom_T_sensor), scene.ply (with the obstacles) and simulation.json (every parameter and
+// count). Throws Error naming what is at fault.
 SimulationSummary simulate(const SimulationOptions& options, const std::filesystem::path& out_dir);
 
 }  // namespace tsdf_mcl::sim

@@ -18,7 +18,8 @@ std::string hz(double rate) {
 }
 
 void check_rate(double rate_hz, const std::string& lidar) {
-  if (!(rate_hz > 0.0) || rate_hz > 100.0) throw Error(lidar + ": scan rate " + hz(rate_hz) + " is outside (0, 100] Hz");
+  if (!(rate_hz > 0.0) || rate_hz > 100.0)
+    throw Error(lidar + ": scan rate " + hz(rate_hz) + " is outside (0, 100] Hz");
 }
 
 }  // namespace
@@ -78,17 +79,19 @@ LidarModel LidarModel::from_beam_table(const std::filesystem::path& file) {
       std::string text;
       if (!(ss >> text)) throw Error(where + "'" + first + "' needs a value");
       value = std::strtod(text.c_str(), &end);
-      if (*end != '\0' || !std::isfinite(value)) throw Error(where + "'" + first + "' expects a number, got '" + text + "'");
+      if (*end != '\0' || !std::isfinite(value))
+        throw Error(where + "'" + first + "' expects a number, got '" + text + "'");
     } else {
       value = std::strtod(first.c_str(), &end);
       if (*end != '\0' || !std::isfinite(value)) {
-        throw Error(where + "expected an elevation in degrees or columns/min_range/max_range/rate/name, got '" +
-                    first + "'");
+        throw Error(where + "expected an elevation in degrees or columns/min_range/max_range/rate/name, got '" + first +
+                    "'");
       }
     }
     if (ss >> rest) throw Error(where + "unexpected '" + rest + "'");
     if (first == "columns") {
-      if (value < 1 || value > 1e5 || value != std::floor(value)) throw Error(where + "columns must be an integer in [1, 100000]");
+      if (value < 1 || value > 1e5 || value != std::floor(value))
+        throw Error(where + "columns must be an integer in [1, 100000]");
       m.columns = static_cast<int>(value);
       have_columns = true;
     } else if (first == "min_range") {

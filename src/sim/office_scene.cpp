@@ -26,10 +26,10 @@ using Eigen::Vector3f;
 constexpr float kLength = 50.0f;
 constexpr float kWidth = 20.0f;
 constexpr float kCeiling = 3.0f;
-constexpr float kSlab = 0.2f;       // floor and ceiling slab thickness
+constexpr float kSlab = 0.2f;  // floor and ceiling slab thickness
 constexpr float kOuterWall = 0.25f;
-constexpr float kWall = 0.15f;      // interior walls
-constexpr float kSink = 0.1f;       // how far walls and raised floors reach into the slabs
+constexpr float kWall = 0.15f;  // interior walls
+constexpr float kSink = 0.1f;   // how far walls and raised floors reach into the slabs
 constexpr float kDoorHeight = 2.1f;
 constexpr float kCorridorSouth = 9.0f;  // wall centre lines
 constexpr float kCorridorNorth = 11.5f;
@@ -152,22 +152,32 @@ class Furnisher {
   Piece piece(int kind) {
     auto u = [&](double a, double b) { return static_cast<float>(rng_.uniform(a, b)); };
     switch (kind) {
-      case kDesk: return {u(1.4, 1.8), 0.8f, 0.74f, 0.0f, true};
-      case kTallCabinet: return {u(0.8, 1.0), 0.45f, u(1.9, 2.1), 0.0f, false};
-      case kSideboard: return {u(0.8, 1.6), 0.45f, u(0.75, 0.85), 0.0f, false};
-      case kShelf: return {u(0.8, 1.0), 0.35f, u(1.8, 2.2), 0.0f, false};
-      case kCounter: return {u(1.8, 3.0), 0.6f, 0.9f, 0.0f, false};
-      default: return {u(1.2, 2.0), 0.03f, u(1.9, 2.0), 0.9f, false};  // whiteboard hangs on the wall
+      case kDesk:
+        return {u(1.4, 1.8), 0.8f, 0.74f, 0.0f, true};
+      case kTallCabinet:
+        return {u(0.8, 1.0), 0.45f, u(1.9, 2.1), 0.0f, false};
+      case kSideboard:
+        return {u(0.8, 1.6), 0.45f, u(0.75, 0.85), 0.0f, false};
+      case kShelf:
+        return {u(0.8, 1.0), 0.35f, u(1.8, 2.2), 0.0f, false};
+      case kCounter:
+        return {u(1.8, 3.0), 0.6f, 0.9f, 0.0f, false};
+      default:
+        return {u(1.2, 2.0), 0.03f, u(1.9, 2.0), 0.9f, false};  // whiteboard hangs on the wall
     }
   }
 
   // side 0: south wall, 1: north, 2: west, 3: east; `at` runs along the wall.
   Rect footprint(int side, float at, float width, float depth) const {
     switch (side) {
-      case 0: return {at, interior_.y0, at + width, interior_.y0 + depth};
-      case 1: return {at, interior_.y1 - depth, at + width, interior_.y1};
-      case 2: return {interior_.x0, at, interior_.x0 + depth, at + width};
-      default: return {interior_.x1 - depth, at, interior_.x1, at + width};
+      case 0:
+        return {at, interior_.y0, at + width, interior_.y0 + depth};
+      case 1:
+        return {at, interior_.y1 - depth, at + width, interior_.y1};
+      case 2:
+        return {interior_.x0, at, interior_.x0 + depth, at + width};
+      default:
+        return {interior_.x1 - depth, at, interior_.x1, at + width};
     }
   }
 
@@ -214,7 +224,7 @@ class Furnisher {
 
 void add_shell(TriangleMesh& mesh) {
   const float m = kOuterWall;
-  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, -kSlab, 0.0f);                 // floor slab
+  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, -kSlab, 0.0f);                // floor slab
   add_block(mesh, {-m, -m, kLength + m, kWidth + m}, kCeiling, kCeiling + kSlab);  // ceiling slab
   add_block(mesh, {-m, -m, kLength + m, 0.0f}, -kSink, kCeiling + kSink);
   add_block(mesh, {-m, kWidth, kLength + m, kWidth + m}, -kSink, kCeiling + kSink);
@@ -297,10 +307,10 @@ void add_pillars(TriangleMesh& mesh) {
 
 void add_corridor_furniture(TriangleMesh& mesh) {
   const float s = kCorridorSouth + kWall / 2, n = kCorridorNorth - kWall / 2;
-  add_block(mesh, {19.3f, n - 0.6f, 19.9f, n}, -0.02f, 1.0f);          // printer
-  add_block(mesh, {28.8f, s, 30.4f, s + 0.4f}, -0.02f, 0.45f);         // bench
+  add_block(mesh, {19.3f, n - 0.6f, 19.9f, n}, -0.02f, 1.0f);                             // printer
+  add_block(mesh, {28.8f, s, 30.4f, s + 0.4f}, -0.02f, 0.45f);                            // bench
   add_block(mesh, {43.6f, n - 0.4f, 44.0f, n}, kWingHeight - 0.02f, kWingHeight + 1.2f);  // plant
-  add_block(mesh, {0.0f, s + 0.3f, 0.5f, s + 1.1f}, -0.02f, 1.6f);     // vending machine at the west end
+  add_block(mesh, {0.0f, s + 0.3f, 0.5f, s + 1.1f}, -0.02f, 1.6f);  // vending machine at the west end
 }
 
 void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint64_t seed) {
@@ -324,7 +334,8 @@ void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint6
       f.keep_clear({-1.0f, -1.0f, kStageX + 0.3f, kStageY + 0.3f});
       f.keep_clear({kStageX, kStageRampY0 - 0.8f, kStageRampEnd + 2.0f, kStageRampY1 + 0.8f});
       f.keep_clear({kHallOpening0 - 0.6f, kCorridorSouth - 2.2f, kHallOpening1 + 0.6f, kCorridorSouth + 1.0f});
-      for (const Rect& p : {Rect{3.3f, 6.4f, 3.7f, 6.8f}, Rect{7.8f, 6.4f, 8.2f, 6.8f}, Rect{11.8f, 4.4f, 12.2f, 4.8f}}) {
+      for (const Rect& p :
+           {Rect{3.3f, 6.4f, 3.7f, 6.8f}, Rect{7.8f, 6.4f, 8.2f, 6.8f}, Rect{11.8f, 4.4f, 12.2f, 4.8f}}) {
         f.keep_clear(p.grown(0.8f));
       }
       f.place_centre({5.2f, 5.6f, 6.6f, 7.6f}, 0.74f, true);

@@ -46,7 +46,8 @@ class Rng {
   std::size_t below(std::size_t n) { return static_cast<std::size_t>(uniform() * static_cast<double>(n)); }
   bool chance(double p) { return uniform() < p; }
 
-  double normal() {  // Box-Muller; the second value is dropped to keep the stream position simple
+  // Box-Muller; the second value is dropped to keep the stream position simple.
+  double normal() {
     const double u1 = 1.0 - uniform();  // (0, 1]
     const double u2 = uniform();
     return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);

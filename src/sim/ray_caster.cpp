@@ -13,7 +13,8 @@ namespace {
 
 void check_device(RTCDevice device, const char* what) {
   const RTCError code = rtcGetDeviceError(device);
-  if (code != RTC_ERROR_NONE) throw Error(std::string("Embree failed to ") + what + " (error " + std::to_string(code) + ")");
+  if (code != RTC_ERROR_NONE)
+    throw Error(std::string("Embree failed to ") + what + " (error " + std::to_string(code) + ")");
 }
 
 RayCaster::Hit hit_from(float tfar, unsigned geom_id, unsigned prim_id, float nx, float ny, float nz,
@@ -57,7 +58,8 @@ RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
     }
   }
   impl_->device = rtcNewDevice("verbose=0");
-  if (!impl_->device) throw Error("Embree could not create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  if (!impl_->device)
+    throw Error("Embree could not create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   impl_->scene = rtcNewScene(impl_->device);
   // Robust mode: a ray through a shared edge or vertex must not slip between the triangles (closed scenes
   // must stay closed for rays); it costs a few percent.
@@ -73,7 +75,8 @@ RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
     rtcReleaseGeometry(geometry);
     check_device(impl_->device, "allocate the mesh buffers");
   }
-  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) std::memcpy(vertices + 3 * i, mesh.vertices[i].data(), 3 * sizeof(float));
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+    std::memcpy(vertices + 3 * i, mesh.vertices[i].data(), 3 * sizeof(float));
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
     for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(mesh.triangles[i][k]);
   }
@@ -152,8 +155,8 @@ void RayCaster::cast_fan(const Eigen::Vector3f& origin, const Eigen::Vector3f* d
     }
     rtcIntersect16(valid, impl_->scene, &context, &packet);
     for (std::size_t k = 0; k < n; ++k) {
-      hits[first + k] = hit_from(packet.ray.tfar[k], packet.hit.geomID[k], packet.hit.primID[k], packet.hit.Ng_x[k], packet.hit.Ng_y[k],
-                                 packet.hit.Ng_z[k], directions[first + k]);
+      hits[first + k] = hit_from(packet.ray.tfar[k], packet.hit.geomID[k], packet.hit.primID[k], packet.hit.Ng_x[k],
+                                 packet.hit.Ng_y[k], packet.hit.Ng_z[k], directions[first + k]);
     }
   }
 }

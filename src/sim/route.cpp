@@ -131,9 +131,9 @@ std::vector<Vector2d> resample(const std::vector<Vector2d>& path, double spacing
 double contact_height(const TraversabilityGrid& grid, const RayCaster& scene, const Vector2d& p, double fallback) {
   const int i = grid.index_of(p);
   const double start = (i >= 0 && !std::isnan(grid.floor(i)) ? grid.floor(i) : fallback) + 0.3;
-  const RayCaster::Hit hit = scene.cast(Eigen::Vector3f(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                                        static_cast<float>(start)),
-                                        Eigen::Vector3f(0.0f, 0.0f, -1.0f), 0.6f);
+  const RayCaster::Hit hit =
+      scene.cast(Eigen::Vector3f(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(start)),
+                 Eigen::Vector3f(0.0f, 0.0f, -1.0f), 0.6f);
   return hit.hit() ? start - hit.distance : start - 0.3;
 }
 
@@ -264,7 +264,8 @@ std::vector<int> mapping_waypoints(const TraversabilityGrid& grid, Rng& rng) {
         const float before = d[order[i - 1]][order[i]] + (j + 1 < n ? d[order[j]][order[j + 1]] : 0.0f);
         const float after = d[order[i - 1]][order[j]] + (j + 1 < n ? d[order[i]][order[j + 1]] : 0.0f);
         if (after < before - 1e-3f) {
-          std::reverse(order.begin() + static_cast<std::ptrdiff_t>(i), order.begin() + static_cast<std::ptrdiff_t>(j) + 1);
+          std::reverse(order.begin() + static_cast<std::ptrdiff_t>(i),
+                       order.begin() + static_cast<std::ptrdiff_t>(j) + 1);
           improved = true;
         }
       }
@@ -376,8 +377,8 @@ Route::Route(std::vector<Sample> samples, std::vector<Eigen::Vector2d> waypoints
 Pose Route::base_pose(double time) const {
   if (time <= samples_.front().time) return samples_.front().world_T_base;
   if (time >= samples_.back().time) return samples_.back().world_T_base;
-  const auto it = std::upper_bound(samples_.begin(), samples_.end(), time,
-                                   [](double t, const Sample& s) { return t < s.time; });
+  const auto it =
+      std::upper_bound(samples_.begin(), samples_.end(), time, [](double t, const Sample& s) { return t < s.time; });
   const Sample& b = *it;
   const Sample& a = *(it - 1);
   const double f = (time - a.time) / (b.time - a.time);

@@ -152,7 +152,8 @@ class Odometry {
     Pose noisy = motion;
     noisy.translation() += sigma_t * dt;
     const Vector3d rv = sigma_r * dr;
-    if (rv.norm() > 0.0) noisy.linear() = motion.linear() * Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
+    if (rv.norm() > 0.0)
+      noisy.linear() = motion.linear() * Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
     odom_T_base_ = orthonormalized(odom_T_base_ * noisy);
     return odom_T_base_;
   }
@@ -182,7 +183,73 @@ void check_output_dir(const fs::path& dir) {
 nlohmann::json pose_json(const Pose& p) {
   const Vector3d rpy = rpy_of(p.linear());
   return {{"x", p.translation().x()}, {"y", p.translation().y()}, {"z", p.translation().z()},
-          {"roll", rpy.x()}, {"pitch", rpy.y()}, {"yaw", rpy.z()}};
+          {"roll", rpy.x()},          {"pitch", rpy.y()},         {"yaw", rpy.z()}};
+}
+
+// simulation.json: every parameter, the scene, the route and the counts, to reproduce or interpret a run.
+void write_description(const fs::path& file, const SimulationOptions& options, const std::string& scene_description,
+                       const TriangleMesh& mesh, const LidarModel& lidar, const RobotModel& robot, const Route& route,
+                       const std::vector<Obstacle>& obstacles, std::size_t sweeps, const SimulationSummary& summary) {
+  nlohmann::json j;
+  j["scene"] = {{"source", options.scene},
+                {"description", scene_description},
+                {"scene_seed", options.scene_seed},
+                {"ground_plane_z",
+                 std::isnan(options.ground_plane_z) ? nlohmann::json() : nlohmann::json(options.ground_plane_z)},
+                {"triangles", mesh.triangles.size()},
+                {"min", {mesh.min_corner().x(), mesh.min_corner().y(), mesh.min_corner().z()}},
+                {"max", {mesh.max_corner().x(), mesh.max_corner().y(), mesh.max_corner().z()}},
+                {"traversable_area_m2", summary.traversable_area_m2},
+                {"file", "scene.ply"}};
+  j["lidar"] = {{"name", lidar.name},
+                {"elevations_deg", lidar.elevations_deg},
+                {"columns", lidar.columns},
+                {"min_range", lidar.min_range},
+                {"max_range", lidar.max_range},
+                {"rate_hz", lidar.rate_hz},
+                {"spin", "clockwise seen from above, column 0 along +x"},
+                {"range_sigma", options.noise.range_sigma},
+                {"dropout", options.noise.dropout},
+                {"motion_distortion", options.motion_distortion}};
+  j["robot"] = {{"radius", robot.radius},
+                {"height", robot.height},
+                {"max_step", robot.max_step},
+                {"max_slope_deg", robot.max_slope_deg},
+                {"wheelbase", robot.wheelbase},
+                {"track", robot.track},
+                {"sensor_height", robot.sensor_height},
+                {"speed", robot.speed},
+                {"max_turn_rate", robot.max_turn_rate},
+                {"max_acceleration", robot.max_acceleration}};
+  j["odometry"] = {{"relative", options.odometry.relative},
+                   {"rotation_per_meter", options.odometry.rotation_per_meter},
+                   {"translation_floor", options.odometry.translation_floor},
+                   {"rotation_floor", options.odometry.rotation_floor},
+                   {"frame", "odom_T_sensor; the odom frame is the base's first pose"}};
+  nlohmann::json waypoints = nlohmann::json::array();
+  for (const Vector2d& w : route.waypoints()) waypoints.push_back({w.x(), w.y()});
+  j["route"] = {{"kind", options.route == RouteKind::mapping ? "mapping" : "test"},
+                {"seed", options.seed},
+                {"duration_limit_s", options.duration_s},
+                {"length_limit_m", options.length_m},
+                {"scan_spacing_m", options.scan_spacing_m},
+                {"length_m", route.length()},
+                {"duration_s", route.duration()},
+                {"waypoints", waypoints},
+                {"start", pose_json(route.samples().front().world_T_base)}};
+  nlohmann::json boxes = nlohmann::json::array();
+  for (const Obstacle& o : obstacles) {
+    boxes.push_back({{"min", {o.min.x(), o.min.y(), o.min.z()}}, {"max", {o.max.x(), o.max.y(), o.max.z()}}});
+  }
+  j["obstacles"] = boxes;
+  j["counts"] = {{"sweeps", sweeps}, {"scans", summary.scans}, {"points", summary.points}};
+  j["files"] = {{"scans", "scans/NNNNNN.bin: float32 x y z intensity, sensor frame"},
+                {"times", "times.txt: end of each sweep (s)"},
+                {"poses", "poses.txt: world_T_sensor at the end of each sweep, KITTI 3x4"},
+                {"odometry", "odom.txt: odom_T_sensor, KITTI 3x4"}};
+  std::ofstream out(file);
+  out << j.dump(2) << "\n";
+  if (!out) throw Error("cannot write " + file.string());
 }
 
 }  // namespace
@@ -199,18 +266,18 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   // The sensor must not poke into what the robot drives under.
   RobotModel robot = options.robot;
   robot.height = std::max(robot.height, robot.sensor_height + 0.1);
-  const double min_floor = std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity()
-                                                               : options.ground_plane_z - 0.01;
+  const double min_floor =
+      std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity() : options.ground_plane_z - 0.01;
   const TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
 
-  double plan_length = options.length_m;
-  if (options.duration_s > 0.0) plan_length = options.duration_s * robot.speed + 5.0;
-  if (plan_length == 0.0) plan_length = kDefaultTestLength;
-  Route route = plan_route(grid, static_scene, robot, options.route, options.seed, plan_length);
-  const double stop_length =
-      options.length_m > 0.0 ? options.length_m
-                             : (options.route == RouteKind::test && options.duration_s == 0.0 ? kDefaultTestLength : 0.0);
-  route = route.truncated(options.duration_s, stop_length);
+  // A test route is planned at least as long as the run; a mapping route covers the floor.
+  double stop_length = options.length_m;
+  if (options.route == RouteKind::test && options.length_m == 0.0 && options.duration_s == 0.0) {
+    stop_length = kDefaultTestLength;
+  }
+  const double plan_length = options.duration_s > 0.0 ? options.duration_s * robot.speed + 5.0 : stop_length;
+  const Route route = plan_route(grid, static_scene, robot, options.route, options.seed, plan_length)
+                          .truncated(options.duration_s, stop_length);
 
   Rng obstacle_rng(mix_key(options.seed, kObstacleStream));
   const std::vector<Obstacle> obstacles = place_obstacles(grid, route, robot, options.obstacles, obstacle_rng);
@@ -276,63 +343,8 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   summary.route_length_m = route.length();
   summary.duration_s = route.duration();
   summary.traversable_area_m2 = grid.free_area();
-
-  nlohmann::json j;
-  j["scene"] = {{"source", options.scene},
-                {"description", scene_description},
-                {"scene_seed", options.scene_seed},
-                {"ground_plane_z", std::isnan(options.ground_plane_z) ? nlohmann::json() : nlohmann::json(options.ground_plane_z)},
-                {"triangles", mesh.triangles.size()},
-                {"min", {mesh.min_corner().x(), mesh.min_corner().y(), mesh.min_corner().z()}},
-                {"max", {mesh.max_corner().x(), mesh.max_corner().y(), mesh.max_corner().z()}},
-                {"traversable_area_m2", grid.free_area()},
-                {"file", "scene.ply"}};
-  j["lidar"] = {{"name", lidar.name},           {"elevations_deg", lidar.elevations_deg},
-                {"columns", lidar.columns},      {"min_range", lidar.min_range},
-                {"max_range", lidar.max_range},  {"rate_hz", lidar.rate_hz},
-                {"spin", "clockwise seen from above, column 0 along +x"},
-                {"range_sigma", options.noise.range_sigma}, {"dropout", options.noise.dropout},
-                {"motion_distortion", options.motion_distortion}};
-  j["robot"] = {{"radius", robot.radius},
-                {"height", robot.height},
-                {"max_step", robot.max_step},
-                {"max_slope_deg", robot.max_slope_deg},
-                {"wheelbase", robot.wheelbase},
-                {"track", robot.track},
-                {"sensor_height", robot.sensor_height},
-                {"speed", robot.speed},
-                {"max_turn_rate", robot.max_turn_rate},
-                {"max_acceleration", robot.max_acceleration}};
-  j["odometry"] = {{"relative", options.odometry.relative},
-                   {"rotation_per_meter", options.odometry.rotation_per_meter},
-                   {"translation_floor", options.odometry.translation_floor},
-                   {"rotation_floor", options.odometry.rotation_floor},
-                   {"frame", "odom_T_sensor; the odom frame is the base's first pose"}};
-  nlohmann::json waypoints = nlohmann::json::array();
-  for (const Vector2d& w : route.waypoints()) waypoints.push_back({w.x(), w.y()});
-  j["route"] = {{"kind", options.route == RouteKind::mapping ? "mapping" : "test"},
-                {"seed", options.seed},
-                {"duration_limit_s", options.duration_s},
-                {"length_limit_m", options.length_m},
-                {"scan_spacing_m", options.scan_spacing_m},
-                {"length_m", route.length()},
-                {"duration_s", route.duration()},
-                {"waypoints", waypoints},
-                {"start", pose_json(route.samples().front().world_T_base)}};
-  nlohmann::json boxes = nlohmann::json::array();
-  for (const Obstacle& o : obstacles) {
-    boxes.push_back({{"min", {o.min.x(), o.min.y(), o.min.z()}}, {"max", {o.max.x(), o.max.y(), o.max.z()}}});
-  }
-  j["obstacles"] = boxes;
-  j["counts"] = {{"sweeps", sweeps}, {"scans", summary.scans}, {"points", summary.points}};
-  j["files"] = {{"scans", "scans/NNNNNN.bin: float32 x y z intensity, sensor frame"},
-                {"times", "times.txt: end of each sweep (s)"},
-                {"poses", "poses.txt: world_T_sensor at the end of each sweep, KITTI 3x4"},
-                {"odometry", "odom.txt: odom_T_sensor, KITTI 3x4"}};
-  std::ofstream json_file(out_dir / "simulation.json");
-  json_file << j.dump(2) << "\n";
-  if (!json_file) throw Error("cannot write " + (out_dir / "simulation.json").string());
-
+  write_description(out_dir / "simulation.json", options, scene_description, mesh, lidar, robot, route, obstacles,
+                    sweeps, summary);
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return summary;
 }

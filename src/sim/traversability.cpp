@@ -231,9 +231,11 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       int hits = 0;
       for (int k = 0; k < 16; ++k) {
         const double a = 2.0 * M_PI * k / 16.0;
-        hits += scene.cast(origin, Eigen::Vector3f(static_cast<float>(std::cos(a)), static_cast<float>(std::sin(a)), 0.0f),
-                           reach)
-                    .hit();
+        hits +=
+            scene
+                .cast(origin, Eigen::Vector3f(static_cast<float>(std::cos(a)), static_cast<float>(std::sin(a)), 0.0f),
+                      reach)
+                .hit();
       }
       enclosed[i] = hits >= 14;
     }

@@ -38,9 +38,9 @@ class TraversabilityGrid {
   Eigen::Vector2d center(int index) const;
 
   bool free(int index) const { return free_[static_cast<std::size_t>(index)] != 0; }  // in the traversable region
-  float floor(int index) const { return floor_[static_cast<std::size_t>(index)]; }   // NaN: no floor
+  float floor(int index) const { return floor_[static_cast<std::size_t>(index)]; }    // NaN: no floor
   bool passable(int index) const { return passable_[static_cast<std::size_t>(index)] != 0; }  // floor, no obstacle
-  float clearance(int index) const { return clearance_[static_cast<std::size_t>(index)]; }  // m to a blocked cell
+  float clearance(int index) const { return clearance_[static_cast<std::size_t>(index)]; }    // m to a blocked cell
   float slope_deg(int index) const { return slope_deg_[static_cast<std::size_t>(index)]; }
 
   const std::vector<int>& free_cells() const { return free_cells_; }

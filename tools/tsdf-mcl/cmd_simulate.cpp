@@ -70,7 +70,8 @@ int run_simulate(int argc, char** argv) {
     if (!(s.rate_hz > 0.0)) throw Error("simulate: --rate must be positive");
   }
   const std::string route = o.text("route");
-  if (route != "mapping" && route != "test") throw Error("simulate: --route must be mapping or test, not '" + route + "'");
+  if (route != "mapping" && route != "test")
+    throw Error("simulate: --route must be mapping or test, not '" + route + "'");
   s.route = route == "mapping" ? sim::RouteKind::mapping : sim::RouteKind::test;
   s.seed = o.count("seed");
   if (o.has("duration") && o.has("length")) throw Error("simulate: give --duration or --length, not both");
@@ -87,7 +88,8 @@ int run_simulate(int argc, char** argv) {
   s.noise.range_sigma = o.number("range-noise");
   s.noise.dropout = o.number("dropout");
   s.odometry.relative = o.number("odom-noise");
-  s.scan_spacing_m = o.has("scan-spacing") ? o.number("scan-spacing") : (s.route == sim::RouteKind::mapping ? 0.5 : 0.0);
+  s.scan_spacing_m =
+      o.has("scan-spacing") ? o.number("scan-spacing") : (s.route == sim::RouteKind::mapping ? 0.5 : 0.0);
   s.obstacles = o.count("obstacles");
   s.motion_distortion = o.flag("motion-distortion");
   const std::string out = o.text("output");
