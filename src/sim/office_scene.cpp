@@ -108,7 +108,7 @@ class Furnisher {
 
   // Free-standing pieces (fixed by the plan) first: wall items then keep a robot-sized aisle to them.
   void place_centre(const Rect& r, float height, bool legs) {
-    assert(interior_.grown(-1.0f).contains(r) && !blocked(r, 0.0f));
+    assert(interior_.grown(-1.0f).contains(r) && !blocked(r));
     centre_.push_back(r);
     if (legs) {
       table(r, height);
@@ -127,10 +127,10 @@ class Furnisher {
       float cursor = start + static_cast<float>(rng_.uniform(0.0, 0.6));
       while (cursor < end) {
         const int kind = kinds[rng_.below(kinds.size())];
-        Piece p = piece(kind);
+        const Piece p = piece(kind);
         const Rect r = footprint(side, cursor, p.width, p.depth);
         cursor += p.width + static_cast<float>(rng_.uniform(0.05, 0.9));
-        if (!interior_.contains(r) || blocked(r, 0.0f) || near_centre(r)) continue;
+        if (!interior_.contains(r) || blocked(r) || near_centre(r)) continue;
         placed_.push_back(r);
         if (p.legs) {
           table(r, p.height);
@@ -181,16 +181,15 @@ class Furnisher {
     }
   }
 
-  bool blocked(const Rect& r, float margin) const {
-    const Rect g = r.grown(margin);
+  // Overlaps a clear zone, or comes within 5 cm of another piece.
+  bool blocked(const Rect& r) const {
     for (const Rect& o : keep_out_) {
-      if (g.overlaps(o)) return true;
+      if (r.overlaps(o)) return true;
     }
-    for (const Rect& o : placed_) {
-      if (g.overlaps(o.grown(0.05f))) return true;
-    }
-    for (const Rect& o : centre_) {
-      if (g.overlaps(o.grown(0.05f))) return true;
+    for (const auto* pieces : {&placed_, &centre_}) {
+      for (const Rect& o : *pieces) {
+        if (r.overlaps(o.grown(0.05f))) return true;
+      }
     }
     return false;
   }
