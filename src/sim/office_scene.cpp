@@ -357,14 +357,14 @@ void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint6
       break;
     case RoomKind::conference:
       f.keep_clear({20.7f, 15.5f, 21.3f, 16.1f});
-      f.place_centre({18.3f, 13.3f, 19.7f, 18.3f}, 0.74f, true);
-      f.place_centre({22.6f, 14.0f, 23.8f, 17.0f}, 0.74f, true);
+      f.place_centre({18.3f, 13.4f, 19.7f, 18.3f}, 0.74f, true);
+      f.place_centre({22.5f, 14.0f, 23.7f, 17.0f}, 0.74f, true);
       f.line_walls({F::kSideboard, F::kWhiteboard});
       break;
     case RoomKind::open_office:
       f.keep_clear({31.0f, kStorageDoorY - 1.2f, 32.0f, kStorageDoorY + 1.2f});
       f.place_centre({26.3f, 14.0f, 27.9f, 15.6f}, 0.74f, true);
-      f.place_centre({29.2f, 15.8f, 30.8f, 17.4f}, 0.74f, true);
+      f.place_centre({29.1f, 15.8f, 30.7f, 17.4f}, 0.74f, true);
       f.line_walls({F::kDesk, F::kDesk, F::kSideboard, F::kTallCabinet});
       break;
     case RoomKind::storage:
