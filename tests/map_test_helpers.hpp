@@ -50,6 +50,20 @@ inline std::string read_bytes(const std::filesystem::path& file) {
 
 inline std::filesystem::path shared_data() { return TSDF_MCL_SHARED_DATA; }
 
+// Binary STL of a mesh (normals left zero, as many exporters do).
+inline void write_binary_stl(const TriangleMesh& mesh, const std::filesystem::path& file) {
+  std::string out(80, ' ');
+  auto put = [&out](auto value) { out.append(reinterpret_cast<const char*>(&value), sizeof(value)); };
+  put(static_cast<std::uint32_t>(mesh.triangles.size()));
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) put(0.0f);
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) put(mesh.vertices[static_cast<std::size_t>(t[k])][a]);
+    put(std::uint16_t{0});
+  }
+  write_bytes(file, out);
+}
+
 // Axis-aligned box [lo, hi] with outward normals (counter-clockwise seen from outside).
 inline TriangleMesh box_mesh(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
   TriangleMesh m;

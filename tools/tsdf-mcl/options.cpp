@@ -14,6 +14,8 @@ Options::Options(std::string command, std::string usage, std::vector<OptionSpec>
     : command_(std::move(command)), usage_(std::move(usage)), specs_(std::move(specs)) {
   for (int i = first; i < argc; ++i) {
     std::string arg = argv[i];
+    // "-o PATH" is the one short option of the command-line contract (DESIGN.md): an alias of --output.
+    if (arg == "-o") arg = "--output";
     if (arg == "--help" || arg == "-h") {
       help_ = true;
       continue;
@@ -53,7 +55,7 @@ std::string Options::help_text() const {
   std::ostringstream out;
   out << "usage: " << usage_ << "\n\noptions:\n";
   for (const auto& s : specs_) {
-    std::string left = "  --" + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
+    std::string left = (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
     if (left.size() < 30) left.resize(30, ' ');
     else left += "\n" + std::string(30, ' ');
     out << left << s.help;

@@ -17,7 +17,7 @@ struct OptionSpec {
 
 class Options {
  public:
-  // Parses argv[first..]: "--name value", "--name=value", "--flag", positional arguments.
+  // Parses argv[first..]: "--name value", "--name=value", "--flag", positional arguments; "-o" stands for "--output".
   // Throws Error for an unknown option or a missing value. Sets help_requested() for --help / -h.
   Options(std::string command, std::string usage, std::vector<OptionSpec> specs, int argc, char** argv, int first);
 

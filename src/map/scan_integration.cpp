@@ -1,0 +1,362 @@
+// TSDF integration of registered scans.
+//
+// Every ray (sensor origin -> point) is walked through the grid (Amanatides & Woo). A voxel's observation is the
+// projective signed distance sdf = range - (centre - origin).u: inside the band (|sdf| <= truncation) it updates a
+// weighted running average, kept as sums of w*sdf and w so that the order of the updates does not matter; in front
+// of the band it is a free-space observation (+truncation, weight 1); behind the band nothing is learned.
+// Behind the surface the weight falls linearly from 1 at -voxel to 0 at -truncation: what lies behind a surface
+// is the least certain part of a ray (thin walls, grazing angles), so it should not outvote views from the other
+// side.
+//
+// Two passes over the scans: the band first, so that the set of blocks near surfaces ("band blocks") is final;
+// then free-space carving. Carving walks each ray block by block and descends to voxels only inside band blocks;
+// a block without any band voxel that a ray crosses becomes a free block as a whole. That is free-space carving at
+// block resolution away from surfaces: it costs an eighth of the steps, and it fills the gaps that diverging rays
+// leave between them far from the sensor (no surface was seen there, or the block would be a band block).
+//
+// Parallelism without locks or atomics: space is cut into slabs of kSlabBlocks blocks across the box's longest
+// axis, dealt out to the threads in turn. Each thread walks only the parts of every ray inside its own slabs and
+// writes only there. Rays are cut at the same slab faces whatever the thread count, so the map does not depend on it.
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <exception>
+#include <limits>
+#include <vector>
+
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/map_builder.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+using Eigen::Vector3f;
+using Eigen::Vector3i;
+
+constexpr int B = TsdfMap::kBlockSize;
+constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
+constexpr std::uint32_t kNoBlock = 0xFFFFFFFFu;
+constexpr std::uint32_t kCarvedBlock = 0xFFFFFFFEu;  // crossed by rays, no band voxel: free as a whole
+// Wide enough that a slab holds several steps of a block walk, narrow enough to balance a few dozen threads.
+constexpr int kSlabBlocks = 4;
+
+// Σ w·sdf and Σ w side by side: an update touches one cache line.
+struct VoxelSums {
+  float wd = 0.0f;
+  float w = 0.0f;
+};
+using BandBlock = std::array<VoxelSums, kVoxels>;
+
+// Points of one scan in the world frame, range-filtered.
+struct WorldScan {
+  Vector3f origin = Vector3f::Zero();
+  std::vector<Vector3f> points;
+};
+
+WorldScan load_world_scan(const Dataset& dataset, std::size_t index, const ScanMapOptions& options) {
+  const PointCloud cloud = dataset.load_scan(index);
+  const Pose& pose = dataset.pose(index);
+  const Eigen::Matrix3f r = pose.linear().cast<float>();
+  WorldScan scan;
+  scan.origin = pose.translation().cast<float>();
+  scan.points.reserve(cloud.size());
+  for (const Vector3f& p : cloud.points) {
+    const float range = p.norm();
+    if (!(range > 0.0f && range >= options.min_range && range <= options.max_range)) continue;
+    scan.points.push_back(r * p + scan.origin);
+  }
+  return scan;
+}
+
+// The cells of a grid that the segment origin + t*dir, t in [t0, t1], passes through, in order (Amanatides & Woo):
+// visit(cell, t_in, t_out). Cells are `scale` voxels wide and aligned with the voxel grid (scale 1: voxels,
+// scale kBlockSize: blocks); voxel v spans [v - 1/2, v + 1/2) * voxel on each axis.
+template <typename Visit>
+void walk(const Vector3f& origin, const Vector3f& dir, float t0, float t1, float voxel, int scale, Visit&& visit) {
+  const float size = voxel * static_cast<float>(scale);
+  const Vector3f g = ((origin + t0 * dir) / voxel + Vector3f::Constant(0.5f)) / static_cast<float>(scale);
+  Vector3i c(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())), static_cast<int>(std::floor(g.z())));
+  Vector3i step;
+  Vector3f t_max, t_delta;
+  for (int a = 0; a < 3; ++a) {
+    if (dir[a] > 0.0f) {
+      step[a] = 1;
+      t_delta[a] = size / dir[a];
+      t_max[a] = t0 + (static_cast<float>(c[a] + 1) - g[a]) * t_delta[a];
+    } else if (dir[a] < 0.0f) {
+      step[a] = -1;
+      t_delta[a] = -size / dir[a];
+      t_max[a] = t0 + (g[a] - static_cast<float>(c[a])) * t_delta[a];
+    } else {
+      step[a] = 0;
+      t_delta[a] = std::numeric_limits<float>::infinity();
+      t_max[a] = std::numeric_limits<float>::infinity();
+    }
+  }
+  float t_in = t0;
+  while (true) {
+    const int a = t_max.x() < t_max.y() ? (t_max.x() < t_max.z() ? 0 : 2) : (t_max.y() < t_max.z() ? 1 : 2);
+    visit(c, t_in, std::min(t_max[a], t1));
+    if (t_max[a] >= t1) return;
+    t_in = t_max[a];
+    c[a] += step[a];
+    t_max[a] += t_delta[a];
+  }
+}
+
+// The accumulator: a dense index over the observed box in blocks, and one pool of band blocks per owner.
+class Accumulator {
+ public:
+  Accumulator(const TsdfMap& box, int owners)
+      : voxel_(box.voxel_size()), truncation_(box.truncation()), min_block_(box.min_block()),
+        dims_(box.dims_blocks()), owners_(owners), slot_(box.coarse_index().size(), kNoBlock),
+        band_(static_cast<std::size_t>(owners)) {
+    dims_.maxCoeff(&slab_axis_);
+    slab_count_ = (dims_[slab_axis_] + kSlabBlocks - 1) / kSlabBlocks;
+  }
+
+  // One thread's view. It caches the block of the previous voxel: consecutive voxels of a ray mostly share one.
+  class Writer {
+   public:
+    // Thread `thread` of a team of `team` serves the owners o with o % team == thread: the runtime may grant
+    // fewer threads than the accumulator was made for, and every owner must still be served.
+    Writer(Accumulator& acc, int thread, int team) : acc_(acc), thread_(thread), team_(team) {}
+
+    // The band observations of the ray origin -> origin + range * u.
+    void band(const Vector3f& origin, const Vector3f& u, float range) {
+      const float trunc = acc_.truncation_, voxel = acc_.voxel_;
+      owned_parts(origin, u, std::max(0.0f, range - trunc - slack()), range + trunc + slack(), [&](float ta, float tb) {
+        walk(origin, u, ta, tb, voxel, 1, [&](const Vector3i& v, float, float) {
+          const float sdf = range - (v.cast<float>() * voxel - origin).dot(u);
+          if (sdf > trunc || sdf < -trunc || !select(block_of(v))) return;
+          const float weight = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
+          if (weight <= 0.0f) return;
+          std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
+          auto& pool = acc_.band_[static_cast<std::size_t>(owner_)];
+          if (slot == kNoBlock) {
+            slot = static_cast<std::uint32_t>(pool.size());
+            pool.emplace_back();
+          }
+          VoxelSums& sums = pool[slot][local(v)];
+          sums.wd += weight * sdf;
+          sums.w += weight;
+        });
+      });
+    }
+
+    // The free space of the same ray in front of its band: block by block, voxel by voxel inside band blocks.
+    void carve(const Vector3f& origin, const Vector3f& u, float range) {
+      const float trunc = acc_.truncation_, voxel = acc_.voxel_;
+      if (range <= trunc) return;
+      owned_parts(origin, u, 0.0f, range - trunc + slack(), [&](float ta, float tb) {
+        walk(origin, u, ta, tb, voxel, B, [&](const Vector3i& block, float t_in, float t_out) {
+          if (!select(block)) return;
+          std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
+          if (slot == kNoBlock || slot == kCarvedBlock) {
+            slot = kCarvedBlock;
+            return;
+          }
+          BandBlock& b = acc_.band_[static_cast<std::size_t>(owner_)][slot];
+          walk(origin, u, t_in, t_out, voxel, 1, [&](const Vector3i& v, float, float) {
+            // Float rounding at the block's faces may start or end the walk in a neighbour's voxel.
+            if (block_of(v) != block || range - (v.cast<float>() * voxel - origin).dot(u) <= trunc) return;
+            VoxelSums& sums = b[local(v)];
+            sums.wd += trunc;
+            sums.w += 1.0f;
+          });
+        });
+      });
+    }
+
+   private:
+    // Calls part(ta, tb) for each piece of the segment t in [t0, t1] that crosses a slab this thread serves,
+    // with slab_ set to that slab.
+    template <typename Part>
+    void owned_parts(const Vector3f& origin, const Vector3f& u, float t0, float t1, Part&& part) {
+      const int a = acc_.slab_axis_;
+      const float size = acc_.voxel_ * static_cast<float>(B * kSlabBlocks);
+      const float base = (static_cast<float>(acc_.min_block_[a] * B) - 0.5f) * acc_.voxel_;  // face of slab 0
+      auto slab_at = [&](float t) { return static_cast<int>(std::floor((origin[a] + t * u[a] - base) / size)); };
+      const int s0 = slab_at(t0), s1 = slab_at(t1);
+      const int first = std::max(0, std::min(s0, s1)), last = std::min(acc_.slab_count_ - 1, std::max(s0, s1));
+      for (int s = first; s <= last; ++s) {
+        if ((s % acc_.owners_) % team_ != thread_) continue;
+        float ta = t0, tb = t1;
+        if (u[a] != 0.0f) {
+          const float face0 = (base + static_cast<float>(s) * size - origin[a]) / u[a];
+          const float face1 = (base + static_cast<float>(s + 1) * size - origin[a]) / u[a];
+          ta = std::max(t0, std::min(face0, face1));
+          tb = std::min(t1, std::max(face0, face1));
+        }
+        if (!(ta < tb)) continue;
+        slab_ = s;
+        owner_ = s % acc_.owners_;
+        block_ = Vector3i::Constant(std::numeric_limits<int>::min());
+        part(ta, tb);
+      }
+    }
+
+    // A ray touches a voxel only within half a voxel diagonal of the projection of the voxel's centre.
+    float slack() const { return 0.5f * std::sqrt(3.0f) * acc_.voxel_; }
+    // Arithmetic shifts and masks are floor division and modulo by 8 for negative indices too.
+    static Vector3i block_of(const Vector3i& v) { return {v.x() >> 3, v.y() >> 3, v.z() >> 3}; }
+    static std::size_t local(const Vector3i& v) {
+      return static_cast<std::size_t>((v.x() & (B - 1)) + B * ((v.y() & (B - 1)) + B * (v.z() & (B - 1))));
+    }
+
+    // True if the block is inside the box and in the current slab (a walk may round into the next one); sets cell_.
+    bool select(const Vector3i& block) {
+      if (block != block_) {
+        block_ = block;
+        const Vector3i c = block - acc_.min_block_;
+        inside_ = (c.array() >= 0).all() && (c.array() < acc_.dims_.array()).all() &&
+                  c[acc_.slab_axis_] / kSlabBlocks == slab_;
+        if (inside_) {
+          cell_ = c.x() + static_cast<std::int64_t>(acc_.dims_.x()) * (c.y() + static_cast<std::int64_t>(acc_.dims_.y()) * c.z());
+        }
+      }
+      return inside_;
+    }
+
+    Accumulator& acc_;
+    int thread_, team_;
+    int slab_ = -1, owner_ = 0;
+    Vector3i block_ = Vector3i::Constant(std::numeric_limits<int>::min());
+    std::int64_t cell_ = -1;
+    bool inside_ = false;
+  };
+  static_assert(B == 8, "block_of() and local() shift and mask by 3 bits");
+
+  TsdfMap to_map() const {
+    TsdfMap map(voxel_, truncation_, min_block_, dims_);
+    std::array<std::int16_t, kVoxels> values{};
+    for (std::size_t cell = 0; cell < slot_.size(); ++cell) {
+      const std::uint32_t slot = slot_[cell];
+      if (slot == kNoBlock) continue;
+      const auto c = static_cast<std::int64_t>(cell);
+      const Vector3i block = min_block_ + Vector3i(static_cast<int>(c % dims_.x()), static_cast<int>((c / dims_.x()) % dims_.y()),
+                                                   static_cast<int>(c / (static_cast<std::int64_t>(dims_.x()) * dims_.y())));
+      if (slot == kCarvedBlock) {
+        map.mark_block_free(block);
+        continue;
+      }
+      const BandBlock& b = band_[static_cast<std::size_t>(((block - min_block_)[slab_axis_] / kSlabBlocks) % owners_)][slot];
+      for (std::size_t l = 0; l < kVoxels; ++l) {
+        values[l] = b[l].w > 0.0f ? map.quantize(b[l].wd / b[l].w) : TsdfMap::kUnknownValue;
+      }
+      map.set_block(block, values);
+    }
+    return map;
+  }
+
+ private:
+  float voxel_, truncation_;
+  Vector3i min_block_, dims_;
+  int owners_;  // slab s belongs to owner s % owners_
+  int slab_axis_ = 0, slab_count_ = 0;
+  std::vector<std::uint32_t> slot_;  // kNoBlock, kCarvedBlock or a band block number in the owner's pool
+  std::vector<std::deque<BandBlock>> band_;  // deques: blocks never move once allocated
+};
+
+void validate(const Dataset& dataset, const std::vector<std::size_t>& scans, const ScanMapOptions& o) {
+  if (!(o.voxel_size > 0.0f) || !std::isfinite(o.voxel_size)) {
+    throw Error("voxel size must be positive, got " + std::to_string(o.voxel_size));
+  }
+  if (!(o.truncation >= o.voxel_size) || !std::isfinite(o.truncation)) {
+    throw Error("truncation (" + std::to_string(o.truncation) + " m) must be at least the voxel size (" +
+                std::to_string(o.voxel_size) + " m)");
+  }
+  if (!(o.min_range >= 0.0f) || !(o.max_range > o.min_range) || !std::isfinite(o.max_range)) {
+    throw Error("range limits must satisfy 0 <= min_range < max_range (finite)");
+  }
+  if (!(o.margin >= 0.0f) || !std::isfinite(o.margin)) throw Error("margin must not be negative");
+  if (!dataset.has_poses()) throw Error("dataset " + dataset.dir().string() + " has no poses.txt (needed to place the scans)");
+  if (scans.empty()) throw Error("no scans selected for the map");
+  for (std::size_t i : scans) {
+    if (i >= dataset.size()) {
+      throw Error("scan " + std::to_string(i) + " selected, but dataset " + dataset.dir().string() + " has " +
+                  std::to_string(dataset.size()) + " scans");
+    }
+  }
+}
+
+}  // namespace
+
+TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size_t>& scans,
+                             const ScanMapOptions& options, const ProgressFn& progress) {
+  validate(dataset, scans, options);
+  const float vs = options.voxel_size;
+  const float trunc = options.truncation;
+  const std::size_t steps = 3 * scans.size();
+  std::size_t done = 0;
+  auto report = [&] {
+    ++done;
+    if (progress) progress(done, steps);
+  };
+
+  // Pass 0: the observed box (origins and points grown by the band and a voxel of walking slack).
+  Vector3f lo = Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Vector3f hi = -lo;
+  std::size_t points = 0;
+  for (std::size_t i : scans) {
+    const WorldScan scan = load_world_scan(dataset, i, options);
+    lo = lo.cwiseMin(scan.origin);
+    hi = hi.cwiseMax(scan.origin);
+    for (const Vector3f& p : scan.points) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    points += scan.points.size();
+    report();
+  }
+  if (points == 0) {
+    throw Error("no scan point lies within the range limits [" + std::to_string(options.min_range) + ", " +
+                std::to_string(options.max_range) + "] m");
+  }
+  const float border = trunc + vs + options.margin;
+  const TsdfMap box = TsdfMap::covering(vs, trunc, lo.array() - border, hi.array() + border);
+  const int threads = std::max(1, omp_get_max_threads());
+  Accumulator acc(box, threads);
+
+  // Pass 1: the truncation band around every point. Pass 2: free space in front of the band.
+  // A thread's carving depends only on the band blocks it owns itself, so the threads never wait for one another:
+  // each loads the scans on its own (cheap next to the integration) and runs through both passes at its own pace.
+  std::exception_ptr failure;
+#pragma omp parallel num_threads(threads)
+  {
+    const int thread = omp_get_thread_num();
+    Accumulator::Writer writer(acc, thread, omp_get_num_threads());
+    try {
+      for (const bool band_pass : {true, false}) {
+        for (std::size_t i : scans) {
+          const WorldScan scan = load_world_scan(dataset, i, options);
+          for (const Vector3f& p : scan.points) {
+            const Vector3f ray = p - scan.origin;
+            const float range = ray.norm();
+            if (band_pass) {
+              writer.band(scan.origin, ray / range, range);
+            } else {
+              writer.carve(scan.origin, ray / range, range);
+            }
+          }
+          // Thread 0 is the calling thread: the callback runs where the caller expects it.
+          if (thread == 0 && done + 1 < steps) report();
+        }
+      }
+    } catch (...) {
+#pragma omp critical(scan_integration_failure)
+      if (!failure) failure = std::current_exception();
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  report();
+
+  TsdfMap map = acc.to_map();
+  map.compact();
+  return map;
+}
+
+}  // namespace tsdf_mcl
