@@ -26,7 +26,7 @@ TEST(SimCli, HelpListsOptionsWithDefaults) {
   const auto run = run_cli("simulate --help", dir.path());
   ASSERT_EQ(run.exit_code, 0);
   for (const char* text : {"--scene", "[default: office]", "--lidar", "--route", "--odom-noise", "[default: 0.1]",
-                           "--motion-distortion", "--obstacles", "--ground-plane", "-o DIR"}) {
+                           "--motion-distortion", "--obstacles", "--ground-plane", "-o, --output DIR"}) {
     EXPECT_NE(run.output.find(text), std::string::npos) << text;
   }
 }

@@ -1,10 +1,8 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <string>
-#include <vector>
 
 #include "commands.hpp"
 #include "options.hpp"
@@ -14,14 +12,6 @@
 namespace tsdf_mcl::cli {
 
 int run_simulate(int argc, char** argv) {
-  // The option parser knows long options only; -o is the command-line contract's short form of --output.
-  std::vector<std::string> args(argv, argv + argc);
-  for (int i = 2; i < argc; ++i) {
-    if (args[static_cast<std::size_t>(i)] == "-o") args[static_cast<std::size_t>(i)] = "--output";
-  }
-  std::vector<char*> arg_ptrs;
-  for (auto& a : args) arg_ptrs.push_back(a.data());
-
   Options o("simulate",
             "tsdf-mcl simulate --scene office|MESH --lidar vlp16|os0-64|BEAMTABLE [--route mapping|test] [--seed N]\n"
             "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor-height M]\n"
@@ -50,9 +40,9 @@ int run_simulate(int argc, char** argv) {
                 {"obstacles", "N", "0", "unmapped people-sized boxes beside a test route"},
                 {"motion-distortion", "", "off",
                  "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
-                {"output", "DIR", "", "output dataset directory (same as -o DIR); must not hold scans yet"},
+                {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
             },
-            argc, arg_ptrs.data(), 2);
+            argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
