@@ -217,3 +217,21 @@ TEST(SimSimulate, RejectsBadOptions) {
   o.lidar = "hdl64";
   EXPECT_NE(message(o).find("hdl64"), std::string::npos);
 }
+
+TEST(SimSimulate, AvzMeshGivesScans) {
+  const auto file = tsdf_mcl::test::shared_data() / "avz" / "avz_no_roof.stl";
+  if (!std::filesystem::exists(file)) GTEST_SKIP() << "shared data " << file << " is not available";
+  for (const double ground : {std::numeric_limits<double>::quiet_NaN(), 0.0}) {
+    TempDir dir;
+    SimulationOptions o = short_test_run(4.0);
+    o.scene = file.string();
+    o.ground_plane_z = ground;
+    const auto summary = tsdf_mcl::sim::simulate(o, dir.path());
+    const Dataset ds = Dataset::open(dir.path());
+    ASSERT_EQ(ds.size(), summary.scans);
+    EXPECT_GT(ds.size(), 50u);
+    // Without a roof over most of the building some beams may see the sky, but most return.
+    EXPECT_GT(ds.load_scan(ds.size() / 2).size(), 7200u);
+    EXPECT_NEAR(summary.route_length_m, 4.0, 0.1);
+  }
+}
