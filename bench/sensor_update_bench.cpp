@@ -78,7 +78,6 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
     } else {
       EvaluatorOptions options;
       options.backend = parse_backend(backend);
-      options.likelihood_table = config.likelihood_table;
       evaluator = make_evaluator(map, options);
       evaluator->reserve(max_particles, points.size());
       evaluator->set_points(points);

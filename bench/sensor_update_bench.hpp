@@ -2,7 +2,6 @@
 // Sensor-update benchmark: median time of the whole update (weighting + reduction, result on the host) per
 // backend and particle count, on a real map and scan. Prints one JSON object per measurement.
 #include <cstdio>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,7 +20,6 @@ struct BenchConfig {
   std::size_t warmup = 2;
   unsigned seed = 1;
   EndpointModel model;
-  std::optional<bool> likelihood_table;  // Vulkan nearest lookups through the table; unset = device default
   std::string map_name;
   std::string scan_name;
 };

@@ -13,9 +13,6 @@ layout(constant_id = 1) const uint INTERPOLATION = 0u;  // 0 nearest, 1 trilinea
 layout(constant_id = 2) const uint LIKELIHOOD = 0u;     // 0 product (log domain), 1 sum
 layout(constant_id = 3) const uint CHUNK_SHIFT = 17u;   // pool chunk = block >> CHUNK_SHIFT (maxStorageBufferRange split)
 layout(constant_id = 4) const uint POOL_CHUNKS = 1u;    // chunks in use (1..4): unused reads compile away
-// Nearest lookups read p (or log p) per quantized distance from a table the host fills, instead of computing
-// exp and log per point: a win on CPU devices (lavapipe), where transcendentals are long polynomials.
-layout(constant_id = 5) const uint USE_TABLE = 0u;
 
 // Particle structure-of-arrays: x y z qw qx qy qz log_weight, each `capacity` floats.
 layout(std430, binding = 0) buffer Particles { float particle[]; };
@@ -25,7 +22,6 @@ layout(std430, binding = 3) readonly buffer Pool0 { uint pool0[]; };
 layout(std430, binding = 4) readonly buffer Pool1 { uint pool1[]; };
 layout(std430, binding = 5) readonly buffer Pool2 { uint pool2[]; };
 layout(std430, binding = 6) readonly buffer Pool3 { uint pool3[]; };
-layout(std430, binding = 7) readonly buffer Table { float table[]; };  // index q + 32768
 
 // Mirrored by gpu::EndpointPushConstants (src/gpu/push_constants.hpp).
 layout(push_constant) uniform Params {
@@ -100,9 +96,7 @@ void main() {
     if (INTERPOLATION == 0u) {
       precise vec3 n = floor(vec3(gx, gy, gz) + 0.5);
       const int q = fetch(ivec3(n));
-      if (USE_TABLE != 0u) {
-        v = table[q + 32768];
-      } else if (q == UNKNOWN_VALUE) {
+      if (q == UNKNOWN_VALUE) {
         v = LIKELIHOOD == 0u ? pc.log_p_rand : pc.p_rand;
       } else {
         const float p_point = likelihood(float(q) * pc.quant_step);

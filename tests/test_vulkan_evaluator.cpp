@@ -10,20 +10,18 @@
 namespace tsdf_mcl {
 namespace {
 
-EvaluatorOptions vulkan_options(bool subgroup = true, std::optional<bool> table = std::nullopt) {
+EvaluatorOptions vulkan_options(bool subgroup = true) {
   EvaluatorOptions o;
   o.backend = Backend::kVulkan;
   o.validation = true;
   o.subgroup_reduction = subgroup;
-  o.likelihood_table = table;
   o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
   return o;
 }
 
-std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true,
-                                             std::optional<bool> table = std::nullopt) {
+std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true) {
   try {
-    return make_evaluator(map, vulkan_options(subgroup, table));
+    return make_evaluator(map, vulkan_options(subgroup));
   } catch (const Error& e) {
     ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
     return nullptr;
@@ -45,14 +43,13 @@ void expect_summaries_close(const WeightSummary& gpu, const WeightSummary& cpu) 
 struct Variant {
   Likelihood likelihood;
   Interpolation interpolation;
-  bool table;  // nearest lookups through the likelihood table (lavapipe's default) or exp/log in the shader
 };
 
 class VulkanVsCpu : public ::testing::TestWithParam<Variant> {};
 
 TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   const TsdfMap map = test::make_room_map();
-  auto gpu = make_vulkan(map, true, GetParam().table);
+  auto gpu = make_vulkan(map);
   ASSERT_TRUE(gpu);
   CpuEvaluator cpu(map, 2);
   std::mt19937 rng(7);
@@ -82,12 +79,10 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
-                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest, true},
-                                           Variant{Likelihood::kProduct, Interpolation::kNearest, false},
-                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, false},
-                                           Variant{Likelihood::kSum, Interpolation::kNearest, true},
-                                           Variant{Likelihood::kSum, Interpolation::kNearest, false},
-                                           Variant{Likelihood::kSum, Interpolation::kTrilinear, false}));
+                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest},
+                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear},
+                                           Variant{Likelihood::kSum, Interpolation::kNearest},
+                                           Variant{Likelihood::kSum, Interpolation::kTrilinear}));
 
 // reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
 // reduction of the very log-weights the GPU computed.

@@ -11,7 +11,6 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,9 +96,6 @@ struct EvaluatorOptions {
   // Vulkan: reduce with subgroup arithmetic where the device has it; false forces the shared-memory tree
   // (both variants are tested on every device).
   bool subgroup_reduction = true;
-  // Vulkan, nearest lookups: read the per-point likelihood from a table instead of computing exp/log.
-  // Unset: on for CPU devices (lavapipe), off for GPUs, where exp/log are cheap hardware instructions.
-  std::optional<bool> likelihood_table;
 };
 
 // Builds the evaluator. With kAuto, tries Vulkan and falls back to the CPU; `note` (if given) receives one

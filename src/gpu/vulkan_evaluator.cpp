@@ -36,7 +36,7 @@ constexpr std::uint32_t kEndpointWorkgroup = 64;
 constexpr std::uint32_t kReduceWorkgroup = 256;
 constexpr std::uint32_t kReduceItems = 4;
 constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
-constexpr std::uint32_t kEndpointBindings = 8;  // particles, points, coarse, pool0..3, likelihood table
+constexpr std::uint32_t kEndpointBindings = 7;  // particles, points, coarse, pool0..3
 constexpr std::uint32_t kMaxPoolChunks = 4;
 constexpr std::uint32_t kReduceBindings = 3;    // particles, records in, records out
 constexpr std::uint32_t kQueries = 3;           // before weighting, after weighting, after reduction
@@ -95,11 +95,6 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::size_t point_count_ = 0;
   gpu::Buffer records_[2];
   std::size_t record_capacity_ = 0;
-  bool use_table_ = false;
-  gpu::Buffer table_;
-  std::vector<float> table_values_;
-  EndpointModel table_model_;
-  bool table_valid_ = false;
 
   std::map<std::uint32_t, std::unique_ptr<gpu::ComputePipeline>> endpoint_pipelines_;
   std::unique_ptr<gpu::ComputePipeline> reduce_pipeline_;
@@ -117,7 +112,6 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
   if (map.empty()) throw Error("the map is empty");
   const VkDevice dev = ctx_->device();
   const gpu::DeviceCaps& caps = ctx_->caps();
-  use_table_ = options.likelihood_table.value_or(caps.type == VK_PHYSICAL_DEVICE_TYPE_CPU);
   try {
     VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -165,8 +159,6 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
       gpu::upload(*ctx_, command_pool_, pool_chunks_.back(),
                   map.block_pool().data() + first * TsdfMap::kWordsPerBlock, count * block_bytes);
     }
-
-    table_ = gpu::Buffer(*ctx_, kernel::kTableSize * sizeof(float), gpu::Buffer::Use::kDeviceLocal);
 
     reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
         *ctx_,
@@ -228,7 +220,6 @@ void VulkanEvaluator::release() {
   fence_ = VK_NULL_HANDLE;
   command_pool_ = VK_NULL_HANDLE;
   coarse_ = {};
-  table_ = {};
   pool_chunks_.clear();
   for (auto& b : particle_sets_) b = {};
   for (auto& b : records_) b = {};
@@ -253,8 +244,7 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
         *ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)}, kEndpointBindings,
         sizeof(gpu::EndpointPushConstants),
         std::vector<std::uint32_t>{kEndpointWorkgroup, interpolation, likelihood, chunk_shift_,
-                                   static_cast<std::uint32_t>(pool_chunks_.size()),
-                                   use_table_ && model.interpolation == Interpolation::kNearest ? 1u : 0u});
+                                   static_cast<std::uint32_t>(pool_chunks_.size())});
   }
   return *slot;
 }
@@ -353,7 +343,6 @@ void VulkanEvaluator::write_descriptor_sets() {
     for (std::uint32_t c = 0; c < kMaxPoolChunks; ++c) {
       bind(endpoint_sets_[s], 3 + c, pool_chunks_[c < pool_chunks_.size() ? c : 0]);
     }
-    bind(endpoint_sets_[s], 7, table_);
     bind(reduce_sets_[s][0], 0, particle_sets_[s]);
     bind(reduce_sets_[s][0], 1, records_[1]);
     bind(reduce_sets_[s][0], 2, records_[0]);
@@ -402,14 +391,6 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   const auto t0 = Clock::now();
   const gpu::ComputePipeline& endpoint = endpoint_pipeline(model);
   if (n == 0) return {};
-  if (use_table_ && model.interpolation == Interpolation::kNearest &&
-      !(table_valid_ && kernel::same_table(model, table_model_))) {
-    // Only when the model's parameters change, never per update.
-    kernel::likelihood_table(model, map_view_.quant_step, table_values_);
-    gpu::upload(*ctx_, command_pool_, table_, table_values_.data(), table_values_.size() * sizeof(float));
-    table_model_ = model;
-    table_valid_ = true;
-  }
 
   gpu::EndpointPushConstants ep{};
   ep.particle_count = static_cast<std::uint32_t>(n);

@@ -26,7 +26,6 @@ int run_bench(int argc, char** argv) {
                 {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
                 {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
                 {"seed", "N", "1", "random seed for the particle placement"},
-                {"likelihood-table", "auto|on|off", "auto", "Vulkan nearest lookups read a likelihood table (auto: on for CPU devices)"},
             },
             argc, argv, 2);
   if (o.help_requested()) {
@@ -58,12 +57,6 @@ int run_bench(int argc, char** argv) {
   if (interpolation != "nearest" && interpolation != "trilinear") throw Error("bench: --interpolation must be nearest or trilinear");
   config.model.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   config.model.validate();
-  const std::string table = o.text("likelihood-table");
-  if (table == "on" || table == "off") {
-    config.likelihood_table = table == "on";
-  } else if (table != "auto") {
-    throw Error("bench: --likelihood-table must be auto, on or off");
-  }
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));

@@ -1,0 +1,391 @@
+// The built-in office floor. Everything is a closed solid (box or extruded convex profile) with outward
+// normals, and solids overlap where they meet instead of sharing faces: a face shared by two solids points
+// both ways at once, which makes the sign of a mesh's distance field ambiguous there.
+//
+// Plan (x east 0..50 m, y north 0..20 m, floor z = 0, ceiling z = 3):
+//   corridor y 9..11.5 along the whole floor; at x 32..36 it climbs a 7 deg ramp to the east wing (x > 36),
+//   whose floor is 0.5 m higher. South of the corridor: a hall (x 0..14) with a stage reached by an 8.5 deg
+//   ramp and a wide opening to the corridor, three small offices, a lab, three offices in the east wing.
+//   North: a kitchen, three small offices, a conference room with two doors, an open office with a storage
+//   room behind it (reached only through the open office), three offices in the east wing.
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "sim/random.hpp"
+#include "sim/shapes.hpp"
+#include "tsdf_mcl/simulator.hpp"
+
+namespace tsdf_mcl::sim {
+
+namespace {
+
+using Eigen::Vector2f;
+using Eigen::Vector3f;
+
+constexpr float kLength = 50.0f;
+constexpr float kWidth = 20.0f;
+constexpr float kCeiling = 3.0f;
+constexpr float kSlab = 0.2f;  // floor and ceiling slab thickness
+constexpr float kOuterWall = 0.25f;
+constexpr float kWall = 0.15f;  // interior walls
+constexpr float kSink = 0.1f;   // how far walls and raised floors reach into the slabs
+constexpr float kDoorHeight = 2.1f;
+constexpr float kCorridorSouth = 9.0f;  // wall centre lines
+constexpr float kCorridorNorth = 11.5f;
+constexpr float kWingX = 36.0f;  // the east wing's floor is raised
+constexpr float kWingHeight = 0.5f;
+constexpr float kRampStart = 32.0f;  // corridor ramp x 32..36
+constexpr float kStageX = 5.5f;      // hall stage x 0..5.5, y 0..4.2
+constexpr float kStageY = 4.2f;
+constexpr float kStageHeight = 0.45f;
+constexpr float kStageRampEnd = 8.5f;  // stage ramp x 5.5..8.5, y 1..3
+constexpr float kStageRampY0 = 1.0f;
+constexpr float kStageRampY1 = 3.0f;
+
+float floor_at(float x) { return x >= kWingX ? kWingHeight : 0.0f; }
+
+struct Rect {
+  float x0, y0, x1, y1;
+  Rect grown(float m) const { return {x0 - m, y0 - m, x1 + m, y1 + m}; }
+  bool overlaps(const Rect& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+  bool contains(const Rect& o) const { return o.x0 >= x0 && o.x1 <= x1 && o.y0 >= y0 && o.y1 <= y1; }
+};
+
+void add_block(TriangleMesh& mesh, const Rect& r, float z0, float z1) {
+  add_box(mesh, Vector3f(r.x0, r.y0, z0), Vector3f(r.x1, r.y1, z1));
+}
+
+struct Opening {
+  float from, to;  // along the wall
+  float top;       // height of the lintel's underside
+};
+
+// A wall between `from` and `to` along one axis, centred on `line` across it, with openings; each opening
+// leaves a lintel from its top to the ceiling slab.
+void add_wall(TriangleMesh& mesh, bool along_x, float line, float from, float to, float thickness,
+              std::vector<Opening> openings) {
+  std::sort(openings.begin(), openings.end(), [](const Opening& a, const Opening& b) { return a.from < b.from; });
+  auto piece = [&](float a, float b, float z0, float z1) {
+    if (b - a < 1e-3f) return;
+    if (along_x) {
+      add_block(mesh, {a, line - thickness / 2, b, line + thickness / 2}, z0, z1);
+    } else {
+      add_block(mesh, {line - thickness / 2, a, line + thickness / 2, b}, z0, z1);
+    }
+  };
+  float cursor = from;
+  for (const Opening& o : openings) {
+    piece(cursor, o.from, -kSink, kCeiling + kSink);
+    piece(o.from, o.to, o.top, kCeiling + kSink);
+    cursor = o.to;
+  }
+  piece(cursor, to, -kSink, kCeiling + kSink);
+}
+
+Opening door(float centre, float width) {
+  return {centre - width / 2, centre + width / 2, floor_at(centre) + kDoorHeight};
+}
+
+enum class RoomKind { hall, office, lab, kitchen, conference, open_office, storage };
+
+struct Room {
+  float x0, x1;  // partition centre lines
+  bool south;
+  RoomKind kind;
+  std::vector<float> doors;  // centres on the corridor wall
+  float door_width = 1.0f;
+};
+
+// Places furniture in one room: items against the walls, larger pieces in the middle, a clear zone in
+// front of every door so the robot can get in.
+class Furnisher {
+ public:
+  Furnisher(TriangleMesh& mesh, Rect interior, float floor, Rng rng)
+      : mesh_(mesh), interior_(interior), floor_(floor), rng_(rng) {}
+
+  void keep_clear(const Rect& r) { keep_out_.push_back(r); }
+
+  // Free-standing pieces (fixed by the plan) first: wall items then keep a robot-sized aisle to them.
+  void place_centre(const Rect& r, float height, bool legs) {
+    assert(interior_.grown(-1.0f).contains(r) && !blocked(r));
+    centre_.push_back(r);
+    if (legs) {
+      table(r, height);
+    } else {
+      add_block(mesh_, r, floor_ - 0.02f, floor_ + height);
+    }
+  }
+
+  // Walks along each wall, placing pieces with random gaps.
+  void line_walls(const std::vector<int>& kinds) {
+    for (int side = 0; side < 4; ++side) {
+      if (rng_.chance(0.2)) continue;
+      const bool along_x = side < 2;
+      const float start = along_x ? interior_.x0 : interior_.y0;
+      const float end = along_x ? interior_.x1 : interior_.y1;
+      float cursor = start + static_cast<float>(rng_.uniform(0.0, 0.6));
+      while (cursor < end) {
+        const int kind = kinds[rng_.below(kinds.size())];
+        const Piece p = piece(kind);
+        const Rect r = footprint(side, cursor, p.width, p.depth);
+        cursor += p.width + static_cast<float>(rng_.uniform(0.05, 0.9));
+        if (!interior_.contains(r) || blocked(r) || near_centre(r)) continue;
+        placed_.push_back(r);
+        if (p.legs) {
+          table(r, p.height);
+        } else {
+          add_block(mesh_, r, floor_ + p.bottom - (p.bottom > 0.0f ? 0.0f : 0.02f), floor_ + p.height);
+        }
+      }
+    }
+  }
+
+  static constexpr int kDesk = 0, kTallCabinet = 1, kSideboard = 2, kShelf = 3, kCounter = 4, kWhiteboard = 5;
+
+ private:
+  struct Piece {
+    float width, depth, height, bottom;
+    bool legs;
+  };
+
+  Piece piece(int kind) {
+    auto u = [&](double a, double b) { return static_cast<float>(rng_.uniform(a, b)); };
+    switch (kind) {
+      case kDesk:
+        return {u(1.4, 1.8), 0.8f, 0.74f, 0.0f, true};
+      case kTallCabinet:
+        return {u(0.8, 1.0), 0.45f, u(1.9, 2.1), 0.0f, false};
+      case kSideboard:
+        return {u(0.8, 1.6), 0.45f, u(0.75, 0.85), 0.0f, false};
+      case kShelf:
+        return {u(0.8, 1.0), 0.35f, u(1.8, 2.2), 0.0f, false};
+      case kCounter:
+        return {u(1.8, 3.0), 0.6f, 0.9f, 0.0f, false};
+      default:
+        return {u(1.2, 2.0), 0.03f, u(1.9, 2.0), 0.9f, false};  // whiteboard hangs on the wall
+    }
+  }
+
+  // side 0: south wall, 1: north, 2: west, 3: east; `at` runs along the wall.
+  Rect footprint(int side, float at, float width, float depth) const {
+    switch (side) {
+      case 0:
+        return {at, interior_.y0, at + width, interior_.y0 + depth};
+      case 1:
+        return {at, interior_.y1 - depth, at + width, interior_.y1};
+      case 2:
+        return {interior_.x0, at, interior_.x0 + depth, at + width};
+      default:
+        return {interior_.x1 - depth, at, interior_.x1, at + width};
+    }
+  }
+
+  // Overlaps a clear zone, or comes within 5 cm of another piece.
+  bool blocked(const Rect& r) const {
+    for (const Rect& o : keep_out_) {
+      if (r.overlaps(o)) return true;
+    }
+    for (const auto* pieces : {&placed_, &centre_}) {
+      for (const Rect& o : *pieces) {
+        if (r.overlaps(o.grown(0.05f))) return true;
+      }
+    }
+    return false;
+  }
+
+  bool near_centre(const Rect& r) const {
+    for (const Rect& o : centre_) {
+      if (r.overlaps(o.grown(1.0f))) return true;
+    }
+    return false;
+  }
+
+  // A table top on four legs: the LiDAR sees under it, the robot cannot drive there.
+  void table(const Rect& r, float height) {
+    const float leg = 0.05f, top = 0.03f, inset = 0.04f;
+    add_block(mesh_, r, floor_ + height - top, floor_ + height);
+    for (int i = 0; i < 4; ++i) {
+      const float x = (i & 1) ? r.x1 - inset - leg : r.x0 + inset;
+      const float y = (i & 2) ? r.y1 - inset - leg : r.y0 + inset;
+      add_block(mesh_, {x, y, x + leg, y + leg}, floor_ - 0.02f, floor_ + height - top + 0.01f);
+    }
+  }
+
+  TriangleMesh& mesh_;
+  Rect interior_;
+  float floor_;
+  Rng rng_;
+  std::vector<Rect> keep_out_;
+  std::vector<Rect> placed_;
+  std::vector<Rect> centre_;
+};
+
+void add_shell(TriangleMesh& mesh) {
+  const float m = kOuterWall;
+  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, -kSlab, 0.0f);                // floor slab
+  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, kCeiling, kCeiling + kSlab);  // ceiling slab
+  add_block(mesh, {-m, -m, kLength + m, 0.0f}, -kSink, kCeiling + kSink);
+  add_block(mesh, {-m, kWidth, kLength + m, kWidth + m}, -kSink, kCeiling + kSink);
+  add_block(mesh, {-m, 0.0f, 0.0f, kWidth}, -kSink, kCeiling + kSink);
+  add_block(mesh, {kLength, 0.0f, kLength + m, kWidth}, -kSink, kCeiling + kSink);
+}
+
+void add_levels(TriangleMesh& mesh) {
+  // East wing floor, and the corridor ramp up to it (its flat tip overlaps the wing to avoid a shared face).
+  add_block(mesh, {kWingX, -kSink, kLength + kSink, kWidth + kSink}, -kSink, kWingHeight);
+  add_prism_xz(mesh,
+               {Vector2f(kRampStart, -kSink), Vector2f(kWingX + 0.2f, -kSink), Vector2f(kWingX + 0.2f, kWingHeight),
+                Vector2f(kWingX, kWingHeight), Vector2f(kRampStart, 0.0f)},
+               kCorridorSouth - kWall / 2, kCorridorNorth + kWall / 2);
+  // Hall stage and its ramp, rising towards -x.
+  add_block(mesh, {-kSink, -kSink, kStageX, kStageY}, -kSink, kStageHeight);
+  add_prism_xz(mesh,
+               {Vector2f(kStageX - 0.2f, -kSink), Vector2f(kStageRampEnd, -kSink), Vector2f(kStageRampEnd, 0.0f),
+                Vector2f(kStageX, kStageHeight), Vector2f(kStageX - 0.2f, kStageHeight)},
+               kStageRampY0, kStageRampY1);
+}
+
+std::vector<Room> rooms() {
+  using K = RoomKind;
+  return {
+      {0, 14, true, K::hall, {2.5f}},
+      {14, 18, true, K::office, {16.4f}},
+      {18, 22, true, K::office, {20.4f}},
+      {22, 26, true, K::office, {24.4f}},
+      {26, 36, true, K::lab, {28.0f}, 1.4f},
+      {36, 42, true, K::office, {38.0f}},
+      {42, 46, true, K::office, {44.4f}},
+      {46, 50, true, K::office, {48.4f}},
+      {0, 5, false, K::kitchen, {3.6f}},
+      {5, 9, false, K::office, {7.6f}},
+      {9, 13, false, K::office, {11.6f}},
+      {13, 17, false, K::office, {15.6f}},
+      {17, 25, false, K::conference, {18.6f, 23.4f}},
+      {25, 32, false, K::open_office, {30.5f}, 1.2f},
+      {32, 36, false, K::storage, {}},
+      {36, 40, false, K::office, {38.4f}},
+      {40, 44, false, K::office, {42.4f}},
+      {44, 50, false, K::office, {45.0f}},
+  };
+}
+
+// The hall's wide opening to the corridor, and the door from the open office into the storage room.
+constexpr float kHallOpening0 = 9.5f, kHallOpening1 = 13.5f, kHallOpeningTop = 2.5f;
+constexpr float kStorageDoorY = 18.5f;
+
+void add_walls(TriangleMesh& mesh, const std::vector<Room>& all) {
+  std::vector<Opening> south, north;
+  for (const Room& r : all) {
+    for (float d : r.doors) (r.south ? south : north).push_back(door(d, r.door_width));
+  }
+  south.push_back({kHallOpening0, kHallOpening1, kHallOpeningTop});
+  add_wall(mesh, true, kCorridorSouth, 0.0f, kLength, kWall, south);
+  add_wall(mesh, true, kCorridorNorth, 0.0f, kLength, kWall, north);
+  for (const Room& r : all) {
+    if (r.x0 <= 0.0f) continue;
+    const float y0 = r.south ? -kSink : kCorridorNorth;
+    const float y1 = r.south ? kCorridorSouth : kWidth + kSink;
+    std::vector<Opening> openings;
+    if (r.kind == RoomKind::storage) openings.push_back({kStorageDoorY - 0.5f, kStorageDoorY + 0.5f, kDoorHeight});
+    add_wall(mesh, false, r.x0, y0, y1, kWall, openings);
+  }
+}
+
+void add_pillars(TriangleMesh& mesh) {
+  const float h = 0.2f;  // half width
+  auto pillar = [&](float x, float y) { add_block(mesh, {x - h, y - h, x + h, y + h}, -kSink, kCeiling + kSink); };
+  for (float x : {14.0f, 22.0f, 26.0f}) pillar(x, kCorridorSouth);  // structural columns in the corridor walls
+  for (float x : {9.0f, 17.0f, 25.0f, 32.0f}) pillar(x, kCorridorNorth);
+  pillar(3.5f, 6.6f);  // free-standing in the hall, the lab and the conference room
+  pillar(8.0f, 6.6f);
+  pillar(12.0f, 4.6f);
+  pillar(31.0f, 4.5f);
+  pillar(21.0f, 15.8f);
+}
+
+void add_corridor_furniture(TriangleMesh& mesh) {
+  const float s = kCorridorSouth + kWall / 2, n = kCorridorNorth - kWall / 2;
+  add_block(mesh, {19.3f, n - 0.6f, 19.9f, n}, -0.02f, 1.0f);                             // printer
+  add_block(mesh, {28.8f, s, 30.4f, s + 0.4f}, -0.02f, 0.45f);                            // bench
+  add_block(mesh, {43.6f, n - 0.4f, 44.0f, n}, kWingHeight - 0.02f, kWingHeight + 1.2f);  // plant
+  add_block(mesh, {0.0f, s + 0.3f, 0.5f, s + 1.1f}, -0.02f, 1.6f);  // vending machine at the west end
+}
+
+void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint64_t seed) {
+  const float half = kWall / 2;
+  Rect interior{room.x0 <= 0.0f ? 0.0f : room.x0 + half, room.south ? 0.0f : kCorridorNorth + half,
+                room.x1 >= kLength ? kLength : room.x1 - half, room.south ? kCorridorSouth - half : kWidth};
+  // Keep the pillar positions clear (pillars stick 0.125 m out of the walls).
+  interior = interior.grown(-0.13f);
+  const float floor = floor_at(room.x0 + 0.01f);
+  Furnisher f(mesh, interior, floor, Rng(mix_key(seed, index)));
+  const float door_wall = room.south ? interior.y1 : interior.y0;
+  for (float d : room.doors) {
+    const float w = room.door_width / 2 + 0.6f;
+    f.keep_clear(room.south ? Rect{d - w, door_wall - 1.6f, d + w, door_wall + 1.0f}
+                            : Rect{d - w, door_wall - 1.0f, d + w, door_wall + 1.6f});
+  }
+  using F = Furnisher;
+  switch (room.kind) {
+    case RoomKind::hall: {
+      // Stage, its ramp and approach, the corridor opening and the free-standing pillars stay clear.
+      f.keep_clear({-1.0f, -1.0f, kStageX + 0.3f, kStageY + 0.3f});
+      f.keep_clear({kStageX, kStageRampY0 - 0.8f, kStageRampEnd + 2.0f, kStageRampY1 + 0.8f});
+      f.keep_clear({kHallOpening0 - 0.6f, kCorridorSouth - 2.2f, kHallOpening1 + 0.6f, kCorridorSouth + 1.0f});
+      for (const Rect& p :
+           {Rect{3.3f, 6.4f, 3.7f, 6.8f}, Rect{7.8f, 6.4f, 8.2f, 6.8f}, Rect{11.8f, 4.4f, 12.2f, 4.8f}}) {
+        f.keep_clear(p.grown(0.8f));
+      }
+      f.place_centre({5.2f, 5.6f, 6.6f, 7.6f}, 0.74f, true);
+      f.line_walls({F::kSideboard, F::kShelf, F::kWhiteboard});
+      add_block(mesh, {0.3f, 3.0f, 0.9f, 3.5f}, kStageHeight - 0.02f, kStageHeight + 1.1f);  // lectern
+      break;
+    }
+    case RoomKind::office:
+      f.line_walls({F::kDesk, F::kDesk, F::kTallCabinet, F::kSideboard, F::kShelf, F::kWhiteboard});
+      break;
+    case RoomKind::lab:
+      f.keep_clear({30.3f, 4.0f, 31.7f, 5.0f});
+      f.place_centre({27.5f, 3.0f, 29.5f, 3.9f}, 0.9f, false);
+      f.place_centre({32.5f, 4.0f, 34.5f, 4.9f}, 0.9f, false);
+      f.line_walls({F::kCounter, F::kTallCabinet, F::kShelf});
+      break;
+    case RoomKind::kitchen:
+      f.place_centre({1.6f, 15.3f, 2.8f, 16.1f}, 0.74f, true);
+      f.line_walls({F::kCounter, F::kTallCabinet});
+      break;
+    case RoomKind::conference:
+      f.keep_clear({20.7f, 15.5f, 21.3f, 16.1f});
+      f.place_centre({18.3f, 13.4f, 19.7f, 18.3f}, 0.74f, true);
+      f.place_centre({22.5f, 14.0f, 23.7f, 17.0f}, 0.74f, true);
+      f.line_walls({F::kSideboard, F::kWhiteboard});
+      break;
+    case RoomKind::open_office:
+      f.keep_clear({31.0f, kStorageDoorY - 1.2f, 32.0f, kStorageDoorY + 1.2f});
+      f.place_centre({26.3f, 14.0f, 27.9f, 15.6f}, 0.74f, true);
+      f.place_centre({29.1f, 15.8f, 30.7f, 17.4f}, 0.74f, true);
+      f.line_walls({F::kDesk, F::kDesk, F::kSideboard, F::kTallCabinet});
+      break;
+    case RoomKind::storage:
+      f.keep_clear({32.0f, kStorageDoorY - 1.2f, 33.6f, kStorageDoorY + 1.2f});
+      f.line_walls({F::kShelf, F::kShelf, F::kTallCabinet});
+      break;
+  }
+}
+
+}  // namespace
+
+TriangleMesh office_scene(std::uint64_t seed) {
+  TriangleMesh mesh;
+  add_shell(mesh);
+  add_levels(mesh);
+  const std::vector<Room> all = rooms();
+  add_walls(mesh, all);
+  add_pillars(mesh);
+  add_corridor_furniture(mesh);
+  for (std::size_t i = 0; i < all.size(); ++i) furnish(mesh, all[i], i, seed);
+  return mesh;
+}
+
+}  // namespace tsdf_mcl::sim

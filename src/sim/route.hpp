@@ -1,0 +1,50 @@
+#pragma once
+// Routes of a ground robot: waypoints chosen on the traversable floor, A* between them (preferring the
+// middle of corridors and doors), smoothed, driven with speed, turn-rate and acceleration limits. The base
+// pose follows the floor: z from the floor under the robot, pitch and roll from the floor heights under
+// its front/back and left/right contact points, yaw from the path's tangent.
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "sim/traversability.hpp"
+#include "tsdf_mcl/pose.hpp"
+#include "tsdf_mcl/simulator.hpp"
+
+namespace tsdf_mcl::sim {
+
+class Route {
+ public:
+  struct Sample {
+    double time = 0.0;      // s from the start
+    double distance = 0.0;  // m driven
+    Pose world_T_base = Pose::Identity();
+  };
+
+  Route(std::vector<Sample> samples, std::vector<Eigen::Vector2d> waypoints);
+
+  double duration() const { return samples_.back().time; }
+  double length() const { return samples_.back().distance; }
+  Pose base_pose(double time) const;  // interpolated; clamped to the route's ends
+  const std::vector<Sample>& samples() const { return samples_; }
+  const std::vector<Eigen::Vector2d>& waypoints() const { return waypoints_; }
+  // The first part, up to max_duration and max_length (<= 0: no limit).
+  Route truncated(double max_duration, double max_length) const;
+
+ private:
+  std::vector<Sample> samples_;
+  std::vector<Eigen::Vector2d> waypoints_;
+};
+
+// Mapping: visits waypoints spread over the whole free region (every free cell within a few metres of
+// one), in a short order. Test: starts at a random spot a few metres before a ramp (where the floor has
+// ramps), drives over it, then on through random waypoints until it is at least min_length long.
+// Different seeds give different routes.
+Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const RobotModel& robot, RouteKind kind,
+                 std::uint64_t seed, double min_length);
+
+// Floor cells whose slope is at least min_slope_deg, grouped into connected ramps (each at least 0.2 m^2
+// and rising at least 0.1 m).
+std::vector<std::vector<int>> find_ramps(const TraversabilityGrid& grid, double min_slope_deg = 3.0);
+
+}  // namespace tsdf_mcl::sim
