@@ -41,7 +41,10 @@ step "4/7 building the TSDF map from the mapping scans"
 "$cli" info "$out/office.tsdf"
 
 step "5/7 global localization on the test run ($particles particles, backend $backend)"
+# Global, with the priors a ground robot has: gravity (the simulated robot tilts at most 15 deg on ramps) and
+# its sensor 0.5 m above the floor. Particle snapshots at the start and every 600 scans for the picture below.
 "$cli" localize --map "$out/office.tsdf" --dataset "$out/test" --init global --particles "$particles" \
+  --init_max_tilt 0.3 --init_height_band 0.3,0.7 --snapshot_every 600 \
   --backend "$backend" --seed "$seed" -o "$out/run"
 
 step "6/7 evaluating against ground truth"
@@ -53,7 +56,7 @@ step "7/7 drawing pictures"
   --title "office: true (green) and estimated (orange) trajectory" -o "$out/trajectory.png"
 snapshots=("$out"/run/snapshots/*.bin)
 if [ -e "${snapshots[0]}" ]; then
-  "$cli" render --map "$out/office.tsdf" --particles "${snapshots[@]}" -o "$out/particles.png"
+  "$cli" render --map "$out/office.tsdf" --particles "$(IFS=,; echo "${snapshots[*]}")" -o "$out/particles.png"
 fi
 
 step "result"

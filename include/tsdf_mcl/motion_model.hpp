@@ -32,15 +32,17 @@ std::string to_string(MotionModelType type);
 
 struct MotionParameters {
   MotionModelType type = MotionModelType::kOdometry;
-  // Defaults suit wheel or LiDAR odometry with a few percent drift (and the datasets shipped for tests).
-  double alpha1 = 0.05;   // yaw noise from rotation (rad/rad)
-  double alpha2 = 0.02;  // yaw noise from translation (rad/m)
-  double alpha3 = 0.05;   // along-track translation noise from translation (m/m)
+  // Defaults cover wheel odometry with 10 % noise and 0.2 rad/m heading slip (the simulator's model) as well
+  // as LiDAR odometry with 2 % drift (balm_realworld): larger values cost particles, smaller ones lose the
+  // track where the odometry is worse than assumed.
+  double alpha1 = 0.08;   // yaw noise from rotation (rad/rad)
+  double alpha2 = 0.03;  // yaw noise from translation (rad/m)
+  double alpha3 = 0.1;   // along-track translation noise from translation (m/m)
   double alpha4 = 0.05;  // translation noise from rotation (m/rad)
-  double alpha5 = 0.03;  // cross-track translation noise from translation (m/m)
-  double alpha6 = 0.03;  // vertical (sensor z) translation noise from translation (m/m)
-  double alpha7 = 0.02;  // roll/pitch noise from rotation (rad/rad)
-  double alpha8 = 0.01;  // roll/pitch noise from translation (rad/m)
+  double alpha5 = 0.08;  // cross-track translation noise from translation (m/m)
+  double alpha6 = 0.08;  // vertical (sensor z) translation noise from translation (m/m)
+  double alpha7 = 0.04;  // roll/pitch noise from rotation (rad/rad)
+  double alpha8 = 0.02;  // roll/pitch noise from translation (rad/m)
   // The relative rotation comes from an IMU and is trusted: rotation noise is imu_sigma (rad per update,
   // each axis) instead of the alpha1/2/7/8 terms.
   bool imu_rotation = false;

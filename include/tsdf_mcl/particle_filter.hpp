@@ -4,8 +4,8 @@
 // particle buffers in place.
 //
 // One update():
-//   motion gate (update_min_d / update_min_a on the motion since the last filter update; open until the
-//   first convergence) -> motion update (+ roughening until the first convergence) -> sensor update (evaluator) -> tempering -> recovery's fit averages
+//   motion gate (update_min_d / update_min_a on the motion since the last filter update; also a time
+//   interval until the first convergence) -> motion update (+ roughening until the first convergence) -> sensor update (evaluator) -> tempering -> recovery's fit averages
 //   -> pose estimate of the dominant mode -> resampling when due.
 // Scans the gate holds back move only the estimate (by the motion since the last update), not the particles:
 // noise that grows with the motion must be drawn once for the whole motion, not once per small step.
@@ -26,7 +26,7 @@
 namespace tsdf_mcl {
 
 struct FilterParameters {
-  std::size_t initial_particles = 50000;  // particles of a global or local initialization
+  std::size_t initial_particles = 100000;  // particles of a global or local initialization
   KldParameters kld;                      // min_particles, max_particles, pf_err, pf_z, bins
   ResamplingMethod resample_method = ResamplingMethod::kSystematic;
   // Resampling is considered every resample_interval-th update, and done when the effective sample size is
@@ -53,14 +53,17 @@ struct FilterParameters {
   MotionParameters motion;
   double update_min_d = 0.1;  // m
   double update_min_a = 0.1;  // rad
-  // Until the filter first converges after an initialization, every scan is an update (the motion gate stays
-  // open) and each adds a random walk of these standard deviations per axis on top of the motion noise. A
-  // global belief is sparse: its particles nearest the true pose are typically decimetres and degrees off,
-  // where the likelihood of hundreds of points cannot tell them from a wrong place. Roughening lets them
-  // climb the likelihood over a few scans before selection judges them, also while the robot stands still.
+  // Until the filter first converges after an initialization, every update adds a random walk of these
+  // standard deviations per axis on top of the motion noise, and a scan the motion gate would hold is still an
+  // update once roughening_interval has passed since the last one. A global belief is sparse: its particles
+  // nearest the true pose are typically decimetres and degrees off, where the likelihood of hundreds of points
+  // cannot tell them from a wrong place. Roughening lets them climb the likelihood over a few scans before
+  // selection judges them, also while the robot stands still. The interval keeps a fast sensor (20 Hz) from
+  // judging the same view again and again, which locks onto a wrong place in a symmetric building.
   // 0 = off.
-  double roughening_xyz = 0.1;     // m
-  double roughening_angle = 0.04;  // rad
+  double roughening_xyz = 0.1;       // m
+  double roughening_angle = 0.04;    // rad
+  double roughening_interval = 1.0;  // s
   GlobalInitOptions global_init;
   LocalInitSpread local_init;
   PoseEstimateOptions estimate;

@@ -43,6 +43,9 @@ void FilterParameters::validate() const {
   if (!(update_min_a >= 0.0) || !std::isfinite(update_min_a)) throw Error("update_min_a must not be negative");
   if (!(roughening_xyz >= 0.0) || !std::isfinite(roughening_xyz)) throw Error("roughening_xyz must not be negative");
   if (!(roughening_angle >= 0.0) || !std::isfinite(roughening_angle)) throw Error("roughening_angle must not be negative");
+  if (!(roughening_interval >= 0.0) || !std::isfinite(roughening_interval)) {
+    throw Error("roughening_interval must not be negative");
+  }
   global_init.validate();
   local_init.validate();
   estimate.validate();
@@ -215,10 +218,11 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
         break;
     }
     // The gate needs measured motion: with a predicted one it could hold a filter still forever. Before the
-    // first convergence it stays open: a global belief gains from every scan (see roughening).
-    if (use_odometry && ever_converged_) {
+    // first convergence a standing robot still gets an update every roughening_interval (see roughening).
+    if (use_odometry) {
       moved = delta.translation().norm() >= params_.update_min_d ||
-              Eigen::AngleAxisd(delta.linear()).angle() >= params_.update_min_a;
+              Eigen::AngleAxisd(delta.linear()).angle() >= params_.update_min_a ||
+              (!ever_converged_ && time - last_time_ >= params_.roughening_interval);
     }
   }
   if (!moved) {

@@ -108,8 +108,9 @@ std::vector<OptionSpec> localize_options() {
       {"diffusion_roll_pitch", "RAD", num(f.motion.diffusion_roll_pitch), "... in roll and pitch"},
       {"update_min_d", "M", num(f.update_min_d), "filter update only after this much translation (odometry model)"},
       {"update_min_a", "RAD", num(f.update_min_a), "... or this much rotation"},
-      {"roughening_xyz", "M", num(f.roughening_xyz), "until the first convergence: extra random walk per update and axis (the motion gate stays open until then)"},
+      {"roughening_xyz", "M", num(f.roughening_xyz), "until the first convergence: extra random walk per update and axis"},
       {"roughening_angle", "RAD", num(f.roughening_angle), "... and per rotation axis"},
+      {"roughening_interval", "S", num(f.roughening_interval), "until the first convergence: an update at least this often, moving or not"},
       // Initialization.
       {"init_max_tilt", "RAD", num(f.global_init.max_tilt), "global init: sensor z axis within this angle of the world's (gravity known); pi = any rotation"},
       {"init_height_band", "MIN,MAX", "", "global init: sensor height above the floor below it (ground robot), e.g. 0.3,1.5"},
@@ -229,6 +230,7 @@ FilterParameters filter_parameters(const Options& o) {
   f.update_min_a = o.number("update_min_a");
   f.roughening_xyz = o.number("roughening_xyz");
   f.roughening_angle = o.number("roughening_angle");
+  f.roughening_interval = o.number("roughening_interval");
 
   f.global_init.max_tilt = o.number("init_max_tilt");
   if (o.maybe("init_height_band")) {
