@@ -41,7 +41,11 @@ INSTANTIATE_TEST_SUITE_P(AllForms, CpuEvaluatorVsReference,
                          ::testing::Values(Case{Likelihood::kProduct, Interpolation::kNearest},
                                            Case{Likelihood::kProduct, Interpolation::kTrilinear},
                                            Case{Likelihood::kSum, Interpolation::kNearest},
-                                           Case{Likelihood::kSum, Interpolation::kTrilinear}));
+                                           Case{Likelihood::kSum, Interpolation::kTrilinear}),
+                         [](const ::testing::TestParamInfo<Case>& p) {
+                           return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
+                                  (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear");
+                         });
 
 TEST(CpuEvaluator, TruePoseOutweighsAShiftedOne) {
   const TsdfMap map = test::make_room_map(0.05f, 0.3f);

@@ -82,7 +82,11 @@ INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
                          ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest},
                                            Variant{Likelihood::kProduct, Interpolation::kTrilinear},
                                            Variant{Likelihood::kSum, Interpolation::kNearest},
-                                           Variant{Likelihood::kSum, Interpolation::kTrilinear}));
+                                           Variant{Likelihood::kSum, Interpolation::kTrilinear}),
+                         [](const ::testing::TestParamInfo<Variant>& p) {
+                           return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
+                                  (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear");
+                         });
 
 // reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
 // reduction of the very log-weights the GPU computed.
