@@ -42,24 +42,33 @@ step "4/7 building the TSDF map from the mapping scans"
 
 step "5/7 global localization on the test run ($particles particles, backend $backend)"
 # Global, with the priors a ground robot has: gravity (the simulated robot tilts at most 15 deg on ramps) and
-# its sensor 0.5 m above the floor. Particle snapshots at the start and every 600 scans for the picture below.
+# its sensor 0.5 m above the floor. Particle snapshots every 10 scans for the picture below.
 "$cli" localize --map "$out/office.tsdf" --dataset "$out/test" --init global --particles "$particles" \
-  --init_max_tilt 0.3 --init_height_band 0.3,0.7 --snapshot_every 600 \
-  --backend "$backend" --seed "$seed" -o "$out/run"
+  --init_max_tilt 0.3 --init_height_band 0.3,0.7 --snapshot_every 10 \
+  --backend "$backend" --seed "$seed" -o "$out/run" 2> >(tee "$out/localize.log" >&2)
 
 step "6/7 evaluating against ground truth"
 "$cli" evaluate --estimate "$out/run/trajectory.tum" --dataset "$out/test" --plot "$out/translation_error.png" \
-  > "$out/metrics.json"
+  > "$out/metrics.json" 2> >(tee "$out/evaluate.log" >&2)
 
 step "7/7 drawing pictures"
 "$cli" render --map "$out/office.tsdf" --ground-truth "$out/test" --estimate "$out/run/trajectory.tum" \
-  --title "office: true (green) and estimated (orange) trajectory" -o "$out/trajectory.png"
-snapshots=("$out"/run/snapshots/*.bin)
-if [ -e "${snapshots[0]}" ]; then
-  "$cli" render --map "$out/office.tsdf" --particles "$(IFS=,; echo "${snapshots[*]}")" -o "$out/particles.png"
+  --title "office: true and estimated trajectory" -o "$out/trajectory.png"
+# The cloud at the start, in the multimodal phase and after convergence (the paper's Fig. 1 / Fig. 5).
+snaps="$out/run/snapshots"
+panels=() captions=()
+for s in init:start scan_000000:"after the first scan" scan_000010:"scan 10" scan_000040:"scan 40" scan_000400:"scan 400"; do
+  f="$snaps/${s%%:*}.bin"
+  [ -e "$f" ] && panels+=("$f") && captions+=("${s#*:}")
+done
+if [ ${#panels[@]} -gt 0 ]; then
+  "$cli" render --map "$out/office.tsdf" --particles "$(IFS=,; echo "${panels[*]}")" \
+    --captions "$(IFS=,; echo "${captions[*]}")" -o "$out/particles.png"
 fi
 
+sleep 0.2  # let the tee'd logs flush
 step "result"
-# evaluate printed the readable summary above; the numbers are also in these files:
+tail -n 1 "$out/localize.log" >&2
+tail -n 1 "$out/evaluate.log" >&2
 echo "metrics:  $out/metrics.json   per-scan report: $out/run/report.json" >&2
 echo "pictures: $out/trajectory.png $out/particles.png $out/translation_error.png" >&2

@@ -539,8 +539,13 @@ int run_localize(int argc, char** argv) {
   std::ofstream out(report_file);
   out << report.dump(1) << "\n";
   if (!out) throw Error("cannot write " + report_file.string());
-  std::fprintf(stderr, "localize: %zu scans, %zu filter updates in %.1f s; %s; wrote %s and %s\n", scans.size(), updates,
-               run_s, filter.estimate().converged ? "converged" : "NOT converged",
+  const nlohmann::json& summary = report["summary"];
+  std::fprintf(stderr,
+               "localize: %zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu "
+               "initial, %zu..%zu, %zu final; %s; wrote %s and %s\n",
+               scans.size(), updates, run_s, summary["update_ms"]["mean"].get<double>(),
+               summary["update_ms"]["median"].get<double>(), params.initial_particles, min_count, max_count,
+               filter.particle_count(), filter.estimate().converged ? "converged" : "NOT converged",
                (out_dir / "trajectory.tum").c_str(), report_file.c_str());
   return 0;
 }
