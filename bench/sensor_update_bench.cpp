@@ -71,9 +71,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
     std::string device;
     if (backend == "reference") {
       reference_storage.assign(8 * max_particles, 0.0f);
-      float* b = reference_storage.data();
-      const std::size_t c = max_particles;
-      reference_particles = {b, b + c, b + 2 * c, b + 3 * c, b + 4 * c, b + 5 * c, b + 6 * c, b + 7 * c, c};
+      reference_particles = ParticleArrays::over(reference_storage.data(), max_particles);
       device = "CPU";
     } else {
       EvaluatorOptions options;

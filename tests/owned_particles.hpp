@@ -11,8 +11,7 @@ struct OwnedParticles {
   ParticleArrays view;
   // n particles at the origin with identity rotation.
   explicit OwnedParticles(std::size_t n) : data(8 * n, 0.0f) {
-    float* b = data.data();
-    view = ParticleArrays{b, b + n, b + 2 * n, b + 3 * n, b + 4 * n, b + 5 * n, b + 6 * n, b + 7 * n, n};
+    view = ParticleArrays::over(data.data(), n);
     for (std::size_t i = 0; i < n; ++i) view.qw[i] = 1.0f;
   }
 };

@@ -9,30 +9,18 @@
 #include <string>
 
 #include "filter_test_scene.hpp"
-#include "map_test_helpers.hpp"
+#include "cli_test_support.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
 namespace tsdf_mcl {
 namespace {
 
+using test::CliResult;
+using test::run_cli;
+
 using test::TempDir;
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-CliResult run_cli(const TempDir& dir, const std::string& args) {
-  const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command = std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(command.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = test::read_bytes(out);
-  r.err = test::read_bytes(err);
-  return r;
-}
 
 std::string last_line(const std::string& text) {
   std::string s = text;

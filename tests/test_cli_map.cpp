@@ -5,30 +5,18 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "map_test_helpers.hpp"
+#include "cli_test_support.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
 using tsdf_mcl::test::read_bytes;
 using tsdf_mcl::test::TempDir;
 
+using tsdf_mcl::test::CliResult;
+using tsdf_mcl::test::run_cli;
+
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-CliResult run_cli(const TempDir& dir, const std::string& args) {
-  const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command = std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(command.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_bytes(out);
-  r.err = read_bytes(err);
-  return r;
-}
 
 // A bad invocation: non-zero exit, exactly one line on stderr, naming what is wrong.
 void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {

@@ -92,10 +92,7 @@ TEST(CpuEvaluator, RejectsBadInput) {
 TEST(WeightReduction, MatchesDirectSumsAndIgnoresThreadCount) {
   const std::size_t n = 10007;
   std::vector<float> buf(8 * n);
-  ParticleArrays p;
-  p.x = buf.data(); p.y = p.x + n; p.z = p.y + n; p.qw = p.z + n; p.qx = p.qw + n; p.qy = p.qx + n; p.qz = p.qy + n;
-  p.log_weight = p.qz + n;
-  p.capacity = n;
+  const ParticleArrays p = ParticleArrays::over(buf.data(), n);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   for (std::size_t i = 0; i < n; ++i) {

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <string>
 
-#include "map_test_helpers.hpp"
+#include "cli_test_support.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/image.hpp"
 #include "tsdf_mcl/map_io.hpp"
@@ -14,24 +14,11 @@
 using Eigen::Vector3f;
 using tsdf_mcl::test::TempDir;
 
+using tsdf_mcl::test::CliResult;
+using tsdf_mcl::test::run_cli;
+
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-CliResult run_cli(const TempDir& dir, const std::string& args) {
-  const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command =
-      std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(command.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = tsdf_mcl::test::read_bytes(out);
-  r.err = tsdf_mcl::test::read_bytes(err);
-  return r;
-}
 
 // A bad invocation: non-zero exit, exactly one line on stderr, naming what is wrong.
 void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {

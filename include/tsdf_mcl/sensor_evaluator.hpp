@@ -32,6 +32,12 @@ struct ParticleArrays {
   float* log_weight = nullptr;  // written by evaluate()
   std::size_t capacity = 0;
 
+  // Views into one block of 8 * capacity floats laid out x.. y.. z.. qw.. qx.. qy.. qz.. log_weight..
+  static ParticleArrays over(float* base, std::size_t capacity) {
+    return {base,                base + capacity,     base + 2 * capacity, base + 3 * capacity, base + 4 * capacity,
+            base + 5 * capacity, base + 6 * capacity, base + 7 * capacity, capacity};
+  }
+
   Eigen::Vector3f position(std::size_t i) const { return {x[i], y[i], z[i]}; }
   Eigen::Quaternionf rotation(std::size_t i) const { return {qw[i], qx[i], qy[i], qz[i]}; }
   void set(std::size_t i, const Eigen::Vector3f& p, const Eigen::Quaternionf& q) const {

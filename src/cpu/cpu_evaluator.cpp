@@ -46,20 +46,7 @@ void CpuEvaluator::reserve(std::size_t particles, std::size_t points) {
   points_.reserve(3 * points);
 }
 
-ParticleArrays CpuEvaluator::view(int set) {
-  float* base = sets_[set].data();
-  ParticleArrays p;
-  p.x = base;
-  p.y = base + capacity_;
-  p.z = base + 2 * capacity_;
-  p.qw = base + 3 * capacity_;
-  p.qx = base + 4 * capacity_;
-  p.qy = base + 5 * capacity_;
-  p.qz = base + 6 * capacity_;
-  p.log_weight = base + 7 * capacity_;
-  p.capacity = capacity_;
-  return p;
-}
+ParticleArrays CpuEvaluator::view(int set) { return ParticleArrays::over(sets_[set].data(), capacity_); }
 
 void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
   const auto t0 = Clock::now();

@@ -250,18 +250,7 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
 }
 
 ParticleArrays VulkanEvaluator::view(int set) {
-  auto* base = static_cast<float*>(particle_sets_[set].mapped());
-  ParticleArrays p;
-  p.x = base;
-  p.y = base + capacity_;
-  p.z = base + 2 * capacity_;
-  p.qw = base + 3 * capacity_;
-  p.qx = base + 4 * capacity_;
-  p.qy = base + 5 * capacity_;
-  p.qz = base + 6 * capacity_;
-  p.log_weight = base + 7 * capacity_;
-  p.capacity = capacity_;
-  return p;
+  return ParticleArrays::over(static_cast<float*>(particle_sets_[set].mapped()), capacity_);
 }
 
 void VulkanEvaluator::reserve(std::size_t particles, std::size_t points) {
