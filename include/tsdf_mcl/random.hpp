@@ -11,7 +11,7 @@
 namespace tsdf_mcl {
 
 // SplitMix64 finalizer: a bijective 64-bit mixer, good enough to turn counters into seeds.
-inline std::uint64_t mix64(std::uint64_t x) {
+constexpr std::uint64_t mix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
@@ -47,6 +47,7 @@ class Rng {
   // Uniform in [0, 1) with 53 random bits.
   double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+  bool chance(double p) { return uniform() < p; }
   // Uniform integer in [0, n), n > 0 (the bias is below n / 2^53).
   std::uint64_t below(std::uint64_t n) {
     const auto k = static_cast<std::uint64_t>(uniform() * static_cast<double>(n));
