@@ -13,6 +13,11 @@ layout(constant_id = 1) const uint INTERPOLATION = 0u;  // 0 nearest, 1 trilinea
 layout(constant_id = 2) const uint LIKELIHOOD = 0u;     // 0 product (log domain), 1 sum
 layout(constant_id = 3) const uint CHUNK_SHIFT = 17u;   // pool chunk = block >> CHUNK_SHIFT (maxStorageBufferRange split)
 layout(constant_id = 4) const uint POOL_CHUNKS = 1u;    // chunks in use (1..4): unused reads compile away
+// Points are read through a uniform-buffer view of the points buffer (binding 7) when the scan fits it: every
+// invocation reads the same point, which a uniform buffer serves as one broadcast load (lavapipe loops over the
+// lanes for every storage-buffer load).
+layout(constant_id = 5) const uint UNIFORM_POINTS = 0u;
+layout(constant_id = 6) const uint UNIFORM_POINT_CAPACITY = 1u;
 
 // Particle structure-of-arrays: x y z qw qx qy qz log_weight, each `capacity` floats.
 layout(std430, binding = 0) buffer Particles { float particle[]; };
@@ -22,6 +27,7 @@ layout(std430, binding = 3) readonly buffer Pool0 { uint pool0[]; };
 layout(std430, binding = 4) readonly buffer Pool1 { uint pool1[]; };
 layout(std430, binding = 5) readonly buffer Pool2 { uint pool2[]; };
 layout(std430, binding = 6) readonly buffer Pool3 { uint pool3[]; };
+layout(std140, binding = 7) uniform UniformPoints { vec4 uniform_point[UNIFORM_POINT_CAPACITY]; };
 
 // Mirrored by gpu::EndpointPushConstants (src/gpu/push_constants.hpp).
 layout(push_constant) uniform Params {
@@ -88,7 +94,7 @@ void main() {
 
   float acc = 0.0;
   for (uint j = 0u; j < pc.point_count; ++j) {
-    const vec3 p = point[j].xyz;
+    const vec3 p = UNIFORM_POINTS != 0u ? uniform_point[j].xyz : point[j].xyz;
     precise float gx = (r0 * p.x + r1 * p.y + r2 * p.z + t.x) * pc.inv_voxel;
     precise float gy = (r3 * p.x + r4 * p.y + r5 * p.z + t.y) * pc.inv_voxel;
     precise float gz = (r6 * p.x + r7 * p.y + r8 * p.z + t.z) * pc.inv_voxel;

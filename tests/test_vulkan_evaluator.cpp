@@ -10,18 +10,19 @@
 namespace tsdf_mcl {
 namespace {
 
-EvaluatorOptions vulkan_options(bool subgroup = true) {
+EvaluatorOptions vulkan_options(bool subgroup = true, bool uniform_points = true) {
   EvaluatorOptions o;
   o.backend = Backend::kVulkan;
   o.validation = true;
   o.subgroup_reduction = subgroup;
+  o.uniform_points = uniform_points;
   o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
   return o;
 }
 
-std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true) {
+std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true, bool uniform_points = true) {
   try {
-    return make_evaluator(map, vulkan_options(subgroup));
+    return make_evaluator(map, vulkan_options(subgroup, uniform_points));
   } catch (const Error& e) {
     ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
     return nullptr;
@@ -43,13 +44,14 @@ void expect_summaries_close(const WeightSummary& gpu, const WeightSummary& cpu) 
 struct Variant {
   Likelihood likelihood;
   Interpolation interpolation;
+  bool uniform_points;  // points through the uniform-buffer view (scans up to 4096 points) or the storage buffer
 };
 
 class VulkanVsCpu : public ::testing::TestWithParam<Variant> {};
 
 TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   const TsdfMap map = test::make_room_map();
-  auto gpu = make_vulkan(map);
+  auto gpu = make_vulkan(map, true, GetParam().uniform_points);
   ASSERT_TRUE(gpu);
   CpuEvaluator cpu(map, 2);
   std::mt19937 rng(7);
@@ -79,13 +81,15 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
-                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest},
-                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear},
-                                           Variant{Likelihood::kSum, Interpolation::kNearest},
-                                           Variant{Likelihood::kSum, Interpolation::kTrilinear}),
+                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest, true},
+                                           Variant{Likelihood::kProduct, Interpolation::kNearest, false},
+                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true},
+                                           Variant{Likelihood::kSum, Interpolation::kNearest, true},
+                                           Variant{Likelihood::kSum, Interpolation::kTrilinear, false}),
                          [](const ::testing::TestParamInfo<Variant>& p) {
                            return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
-                                  (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear");
+                                  (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear") +
+                                  (p.param.uniform_points ? "_uniform_points" : "_storage_points");
                          });
 
 // reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
@@ -135,6 +139,29 @@ TEST(VulkanEvaluator, GrowingKeepsParticlesAndSwapUsesTheOtherSet) {
   for (std::size_t i = 0; i < 100; ++i) {
     ASSERT_NEAR(p.log_weight[i], reference_log_weight(map, model, p.position(i), p.rotation(i), scan),
                 1e-4 * std::abs(p.log_weight[i]));
+  }
+}
+
+// One evaluator switches between the uniform view (small scans) and the storage buffer (scans beyond it).
+TEST(VulkanEvaluator, ScansBeyondTheUniformRangeUseTheStorageBuffer) {
+  const TsdfMap map = test::make_room_map();
+  auto gpu = make_vulkan(map);
+  ASSERT_TRUE(gpu);
+  std::mt19937 rng(3);
+  const std::size_t n = 64;
+  gpu->reserve(n, 5000);
+  test::random_particles(gpu->particles(), n, rng, Eigen::Vector3f(-3, -2, 0), Eigen::Vector3f(3, 2, 3));
+  EndpointModel model;
+  for (std::size_t points : {100u, 5000u, 300u}) {
+    SCOPED_TRACE(points);
+    const auto scan = test::random_scan(points, rng);
+    gpu->set_points(scan);
+    gpu->evaluate(n, model, Eigen::Quaternionf::Identity());
+    const ParticleArrays p = gpu->particles();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double ref = reference_log_weight(map, model, p.position(i), p.rotation(i), scan);
+      ASSERT_NEAR(p.log_weight[i], ref, 1e-4 * std::abs(ref)) << i;
+    }
   }
 }
 

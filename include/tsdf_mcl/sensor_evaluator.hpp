@@ -102,6 +102,9 @@ struct EvaluatorOptions {
   // Vulkan: reduce with subgroup arithmetic where the device has it; false forces the shared-memory tree
   // (both variants are tested on every device).
   bool subgroup_reduction = true;
+  // Vulkan: read scan points through a uniform-buffer view of their storage buffer when they fit (up to 4096);
+  // false keeps to the storage-buffer binding (both paths are tested).
+  bool uniform_points = true;
 };
 
 // Builds the evaluator. With kAuto, tries Vulkan and falls back to the CPU; `note` (if given) receives one

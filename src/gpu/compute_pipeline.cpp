@@ -2,17 +2,15 @@
 
 namespace tsdf_mcl::gpu {
 
-ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code, std::uint32_t bindings,
+ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code, const std::vector<VkDescriptorType>& bindings,
                                  std::uint32_t push_constant_bytes, const std::vector<std::uint32_t>& specialization)
-    : device_(ctx.device()), bindings_(bindings) {
+    : device_(ctx.device()), bindings_(static_cast<std::uint32_t>(bindings.size())) {
   VkShaderModule module = VK_NULL_HANDLE;
   try {
-    std::vector<VkDescriptorSetLayoutBinding> b(bindings);
-    for (std::uint32_t i = 0; i < bindings; ++i) {
-      b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-    }
+    std::vector<VkDescriptorSetLayoutBinding> b(bindings_);
+    for (std::uint32_t i = 0; i < bindings_; ++i) b[i] = {i, bindings[i], 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-    set_info.bindingCount = bindings;
+    set_info.bindingCount = bindings_;
     set_info.pBindings = b.data();
     check(vkCreateDescriptorSetLayout(device_, &set_info, nullptr, &set_layout_), "vkCreateDescriptorSetLayout");
 

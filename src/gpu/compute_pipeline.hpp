@@ -11,12 +11,12 @@ struct ShaderCode {
   std::size_t word_count;
 };
 
-// One compute pipeline: `bindings` storage buffers at set 0, bindings 0..n-1, a push-constant block, and
-// uint32 specialization constants with ids 0..k-1 (id 0 is the workgroup size by convention).
+// One compute pipeline: buffers at set 0, bindings 0..n-1 of the given descriptor types, a push-constant block,
+// and uint32 specialization constants with ids 0..k-1 (id 0 is the workgroup size by convention).
 class ComputePipeline {
  public:
-  ComputePipeline(const VulkanContext& ctx, ShaderCode code, std::uint32_t bindings, std::uint32_t push_constant_bytes,
-                  const std::vector<std::uint32_t>& specialization);
+  ComputePipeline(const VulkanContext& ctx, ShaderCode code, const std::vector<VkDescriptorType>& bindings,
+                  std::uint32_t push_constant_bytes, const std::vector<std::uint32_t>& specialization);
   ~ComputePipeline();
   ComputePipeline(const ComputePipeline&) = delete;
   ComputePipeline& operator=(const ComputePipeline&) = delete;

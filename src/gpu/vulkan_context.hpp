@@ -25,6 +25,7 @@ struct DeviceCaps {
   double timestamp_period_ns = 1.0;
   std::uint64_t timestamp_mask = ~0ull;
   std::uint64_t max_storage_buffer_range = 0;
+  std::uint64_t max_uniform_buffer_range = 0;
   std::uint32_t max_workgroup_size_x = 0;
   std::uint32_t max_workgroup_invocations = 0;
   std::uint32_t max_workgroup_count_x = 0;
