@@ -36,33 +36,33 @@ int run_bench(int argc, char** argv) {
   bench::BenchConfig config;
   config.particle_counts.clear();
   for (double v : o.numbers("particles")) {
-    if (v < 1 || v != std::floor(v)) throw Error("bench: --particles needs positive integers");
+    if (v < 1 || v != std::floor(v)) throw Error("--particles needs positive integers");
     config.particle_counts.push_back(static_cast<std::size_t>(v));
   }
   config.points = o.count("points");
-  if (config.points == 0) throw Error("bench: --points must be positive");
+  if (config.points == 0) throw Error("--points must be positive");
   config.spread = o.text("spread");
   config.backends = o.list("backend");
   for (const auto& b : config.backends) {
-    if (b != "cpu" && b != "vulkan" && b != "reference") throw Error("bench: unknown backend '" + b + "'");
+    if (b != "cpu" && b != "vulkan" && b != "reference") throw Error("unknown backend '" + b + "'");
   }
   config.repetitions = std::max<std::size_t>(1, o.count("repetitions"));
   config.warmup = o.count("warmup");
   config.seed = static_cast<unsigned>(o.count("seed"));
   config.model.sigma_hit = static_cast<float>(o.number("sigma-hit"));
   const std::string likelihood = o.text("likelihood");
-  if (likelihood != "product" && likelihood != "sum") throw Error("bench: --likelihood must be product or sum");
+  if (likelihood != "product" && likelihood != "sum") throw Error("--likelihood must be product or sum");
   config.model.likelihood = likelihood == "product" ? Likelihood::kProduct : Likelihood::kSum;
   const std::string interpolation = o.text("interpolation");
-  if (interpolation != "nearest" && interpolation != "trilinear") throw Error("bench: --interpolation must be nearest or trilinear");
+  if (interpolation != "nearest" && interpolation != "trilinear") throw Error("--interpolation must be nearest or trilinear");
   config.model.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   config.model.validate();
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));
   const std::size_t k = o.count("scan");
-  if (k >= dataset.size()) throw Error("bench: --scan " + std::to_string(k) + " but the dataset has " + std::to_string(dataset.size()) + " scans");
-  if (!dataset.has_poses()) throw Error("bench: the dataset has no poses.txt (needed to place the particles)");
+  if (k >= dataset.size()) throw Error("--scan " + std::to_string(k) + " but the dataset has " + std::to_string(dataset.size()) + " scans");
+  if (!dataset.has_poses()) throw Error("the dataset has no poses.txt (needed to place the particles)");
   config.map_name = o.text("map");
   config.scan_name = dataset.scan_path(k).string();
   bench::run_sensor_update_bench(map, dataset.load_scan(k), dataset.pose(k), config, stdout);

@@ -77,36 +77,36 @@ int run_build_map(int argc, char** argv) {
     return 0;
   }
   if (!o.positional().empty()) {
-    throw Error("build-map: unexpected argument '" + o.positional().front() + "' (the map file goes after -o)");
+    throw Error("unexpected argument '" + o.positional().front() + "' (the map file goes after -o)");
   }
   const int sources = static_cast<int>(o.has("mesh")) + static_cast<int>(o.has("dataset")) + static_cast<int>(o.has("import-h5"));
-  if (sources == 0) throw Error("build-map: no source: give --mesh FILE, --dataset DIR or --import-h5 FILE");
-  if (sources > 1) throw Error("build-map: give only one source of --mesh, --dataset and --import-h5");
-  if (!o.has("output")) throw Error("build-map: missing -o MAP (the map file to write)");
+  if (sources == 0) throw Error("no source: give --mesh FILE, --dataset DIR or --import-h5 FILE");
+  if (sources > 1) throw Error("give only one source of --mesh, --dataset and --import-h5");
+  if (!o.has("output")) throw Error("missing -o MAP (the map file to write)");
   const fs::path output = o.text("output");
-  if (output.empty()) throw Error("build-map: -o needs a file name");
+  if (output.empty()) throw Error("-o needs a file name");
   const fs::path output_dir = output.has_parent_path() ? output.parent_path() : fs::path(".");
-  if (!fs::is_directory(output_dir)) throw Error("build-map: output folder " + output_dir.string() + " does not exist");
+  if (!fs::is_directory(output_dir)) throw Error("output folder " + output_dir.string() + " does not exist");
   if (!o.has("dataset")) {
     for (const char* name : {"start", "stride", "count", "min-range", "max-range"}) {
       if (o.has(name)) throw Error(std::string("build-map: --") + name + " applies to --dataset only");
     }
   }
-  if (!o.has("mesh") && o.has("no-free-space")) throw Error("build-map: --no-free-space applies to --mesh only");
+  if (!o.has("mesh") && o.has("no-free-space")) throw Error("--no-free-space applies to --mesh only");
 
   const bool h5 = o.has("import-h5");
   if (h5 && (o.has("voxel") || o.has("margin"))) {
-    throw Error("build-map: --import-h5 keeps the reference map's 0.064 m voxels and extent (no --voxel, --margin)");
+    throw Error("--import-h5 keeps the reference map's 0.064 m voxels and extent (no --voxel, --margin)");
   }
   const double voxel = h5 ? 0.064 : o.number("voxel");
   const double truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
-  if (!(voxel > 0.0)) throw Error("build-map: --voxel must be positive, got " + o.text("voxel"));
+  if (!(voxel > 0.0)) throw Error("--voxel must be positive, got " + o.text("voxel"));
   if (!(truncation >= voxel)) {
-    throw Error("build-map: --truncation (" + format("%g m", truncation) + ") must be at least the voxel size (" +
+    throw Error("--truncation (" + format("%g m", truncation) + ") must be at least the voxel size (" +
                 format("%g m", voxel) + ")");
   }
   const double margin = o.number("margin");
-  if (margin < 0.0) throw Error("build-map: --margin must not be negative");
+  if (margin < 0.0) throw Error("--margin must not be negative");
 
   const auto started = std::chrono::steady_clock::now();
   TsdfMap map;
@@ -130,12 +130,12 @@ int run_build_map(int argc, char** argv) {
     source = o.text("dataset");
     const Dataset dataset = Dataset::open(source);
     if (!dataset.has_poses()) {
-      throw Error("build-map: dataset " + source + " has no poses.txt (scans are integrated at their world_T_sensor poses)");
+      throw Error("dataset " + source + " has no poses.txt (scans are integrated at their world_T_sensor poses)");
     }
     const ScanSelection selection{o.count("start"), o.count("stride"), o.count("count")};
     const std::vector<std::size_t> scans = selection.indices(dataset.size());
     if (scans.empty()) {
-      throw Error("build-map: --start " + o.text("start") + " --stride " + o.text("stride") + " --count " +
+      throw Error("--start " + o.text("start") + " --stride " + o.text("stride") + " --count " +
                   o.text("count") + " selects none of the " + std::to_string(dataset.size()) + " scans");
     }
     ScanMapOptions options;

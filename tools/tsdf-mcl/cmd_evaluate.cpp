@@ -77,16 +77,16 @@ int run_evaluate(int argc, char** argv) {
   o.expect_positional(0, "no positional arguments");
   const std::string estimate_file = o.text("estimate");
   const Dataset dataset = Dataset::open(o.text("dataset"));
-  if (!dataset.has_poses()) throw Error("evaluate: dataset " + dataset.dir().string() + " has no poses.txt (ground truth)");
+  if (!dataset.has_poses()) throw Error("dataset " + dataset.dir().string() + " has no poses.txt (ground truth)");
   MetricsOptions mo;
   mo.max_translation_error = o.number("max_translation_error");
   mo.max_rotation_error = o.number("max_rotation_error") / kDeg;
   mo.time_tolerance = o.number("time_tolerance");
   if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
-    throw Error("evaluate: thresholds must be positive and the time tolerance non-negative");
+    throw Error("thresholds must be positive and the time tolerance non-negative");
   }
   const std::vector<StampedPose> estimate = read_tum(estimate_file);
-  if (estimate.empty()) throw Error("evaluate: " + estimate_file + " holds no poses");
+  if (estimate.empty()) throw Error("" + estimate_file + " holds no poses");
   const TrajectoryMetrics m = evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo);
 
   nlohmann::json j;

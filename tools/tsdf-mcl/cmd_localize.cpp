@@ -175,7 +175,7 @@ void apply_config(Options& o, const std::string& file) {
 
 double positive(const Options& o, const std::string& name) {
   const double v = o.number(name);
-  if (!(v > 0.0)) throw Error("localize: --" + name + " must be positive");
+  if (!(v > 0.0)) throw Error("--" + name + " must be positive");
   return v;
 }
 
@@ -201,11 +201,11 @@ FilterParameters filter_parameters(const Options& o) {
   f.sensor.z_rand = static_cast<float>(o.number("z_rand"));
   f.sensor.max_range = static_cast<float>(positive(o, "laser_max_range"));
   const std::string likelihood = o.text("likelihood");
-  if (likelihood != "product" && likelihood != "sum") throw Error("localize: --likelihood must be product or sum");
+  if (likelihood != "product" && likelihood != "sum") throw Error("--likelihood must be product or sum");
   f.sensor.likelihood = likelihood == "product" ? Likelihood::kProduct : Likelihood::kSum;
   const std::string interpolation = o.text("interpolation");
   if (interpolation != "nearest" && interpolation != "trilinear") {
-    throw Error("localize: --interpolation must be nearest or trilinear");
+    throw Error("--interpolation must be nearest or trilinear");
   }
   f.sensor.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   f.sensor.weight_exponent = static_cast<float>(o.number("weight_exponent"));
@@ -235,7 +235,7 @@ FilterParameters filter_parameters(const Options& o) {
   f.global_init.max_tilt = o.number("init_max_tilt");
   if (o.maybe("init_height_band")) {
     const std::vector<double> band = o.numbers("init_height_band");
-    if (band.size() != 2) throw Error("localize: --init_height_band expects MIN,MAX");
+    if (band.size() != 2) throw Error("--init_height_band expects MIN,MAX");
     f.global_init.use_height_band = true;
     f.global_init.min_height = band[0];
     f.global_init.max_height = band[1];
@@ -247,7 +247,7 @@ FilterParameters filter_parameters(const Options& o) {
   f.local_init.sigma_roll_pitch = o.number("init_sigma_roll_pitch");
 
   const std::string estimate = o.text("pose_estimate");
-  if (estimate != "mean" && estimate != "best") throw Error("localize: --pose_estimate must be mean or best");
+  if (estimate != "mean" && estimate != "best") throw Error("--pose_estimate must be mean or best");
   f.estimate.best_particle = estimate == "best";
   f.estimate.cluster_bin_xyz = static_cast<float>(o.number("cluster_bin_xyz"));
   f.estimate.cluster_bin_yaw = static_cast<float>(o.number("cluster_bin_yaw"));
@@ -279,7 +279,7 @@ std::optional<Pose> initial_pose(const Options& o) {
     for (const char* k : {"x", "y", "z", "roll", "pitch", "yaw"}) v.push_back(o.number(std::string("initial_pose.") + k));
   } else {
     v = o.numbers("init");
-    if (v.size() != 6) throw Error("localize: --init expects global, initial_pose or x,y,z,roll,pitch,yaw (6 numbers)");
+    if (v.size() != 6) throw Error("--init expects global, initial_pose or x,y,z,roll,pitch,yaw (6 numbers)");
   }
   return pose_from_xyz_rpy(v[0], v[1], v[2], v[3], v[4], v[5]);
 }
@@ -348,7 +348,7 @@ int run_localize(int argc, char** argv) {
   const FilterParameters params = filter_parameters(o);
   const ScanPreprocessing scan_params = scan_parameters(o);
   const std::optional<Pose> init_pose = initial_pose(o);
-  if (!o.maybe("output")) throw Error("localize: missing -o OUT (the output folder)");
+  if (!o.maybe("output")) throw Error("missing -o OUT (the output folder)");
   const fs::path out_dir = o.text("output");
   const std::string map_file = o.text("map");
   const Dataset dataset = Dataset::open(o.text("dataset"));
@@ -358,11 +358,11 @@ int run_localize(int argc, char** argv) {
   selection.count = o.count("count");
   const std::vector<std::size_t> scans = selection.indices(dataset.size());
   if (scans.empty()) {
-    throw Error("localize: --start " + std::to_string(selection.start) + " selects no scan (the dataset has " +
+    throw Error("--start " + std::to_string(selection.start) + " selects no scan (the dataset has " +
                 std::to_string(dataset.size()) + ")");
   }
   if (params.motion.type == MotionModelType::kOdometry && !dataset.has_odometry()) {
-    throw Error("localize: dataset " + dataset.dir().string() +
+    throw Error("dataset " + dataset.dir().string() +
                 " has no odom.txt, which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
   }
   // Empty scan files are caught before any work starts; scans whose points are all NaN or out of range can

@@ -116,35 +116,35 @@ int run_render(int argc, char** argv) {
   o.expect_positional(0, "options only, e.g. --map MAP -o OUT.png");
 
   // Option errors are reported before the (possibly large) map is loaded.
-  if (!o.has("output")) throw Error("render: missing -o OUT.png (the image to write)");
+  if (!o.has("output")) throw Error("missing -o OUT.png (the image to write)");
   const fs::path output = o.text("output");
   std::string extension = output.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (extension != ".png") throw Error("render: the output must be a .png file, got " + output.string());
+  if (extension != ".png") throw Error("the output must be a .png file, got " + output.string());
   std::error_code ec;
   if (output.has_parent_path() && !fs::is_directory(output.parent_path(), ec)) {
-    throw Error("render: cannot write " + output.string() + ": folder " + output.parent_path().string() +
+    throw Error("cannot write " + output.string() + ": folder " + output.parent_path().string() +
                 " does not exist");
   }
   MapRasterOptions raster_options;
   if (o.has("z-min")) raster_options.z_min = static_cast<float>(o.number("z-min"));
   if (o.has("z-max")) raster_options.z_max = static_cast<float>(o.number("z-max"));
   if (o.has("slice")) {
-    if (o.has("z-min") || o.has("z-max")) throw Error("render: --slice draws one height; it excludes --z-min/--z-max");
+    if (o.has("z-min") || o.has("z-max")) throw Error("--slice draws one height; it excludes --z-min/--z-max");
     raster_options.slice_z = static_cast<float>(o.number("slice"));
   }
   MapViewOptions view_options;
   if (o.has("pixel")) {
     view_options.metres_per_pixel = o.number("pixel");
-    if (!(view_options.metres_per_pixel > 0.0)) throw Error("render: --pixel must be a positive number of metres");
+    if (!(view_options.metres_per_pixel > 0.0)) throw Error("--pixel must be a positive number of metres");
   }
   const std::vector<std::string> particle_files = o.has("particles") ? o.list("particles") : std::vector<std::string>{};
   std::vector<std::string> captions;
   if (o.has("captions")) {
-    if (particle_files.empty()) throw Error("render: --captions needs --particles (one caption per snapshot)");
+    if (particle_files.empty()) throw Error("--captions needs --particles (one caption per snapshot)");
     captions = o.list("captions");
     if (captions.size() != particle_files.size()) {
-      throw Error("render: " + std::to_string(captions.size()) + " captions for " +
+      throw Error("" + std::to_string(captions.size()) + " captions for " +
                   std::to_string(particle_files.size()) + " particle snapshots");
     }
   }
@@ -160,7 +160,7 @@ int run_render(int argc, char** argv) {
   std::optional<Dataset> truth;
   if (o.has("ground-truth")) {
     truth = Dataset::open(o.text("ground-truth"));
-    if (!truth->has_poses()) throw Error("render: --ground-truth " + o.text("ground-truth") + " has no poses.txt");
+    if (!truth->has_poses()) throw Error("--ground-truth " + o.text("ground-truth") + " has no poses.txt");
     // Wide and translucent, under the estimates: where an estimate leaves the band, it is wrong there.
     trajectories.push_back({"ground truth", truth->poses(), colors::kBlack, 7.0f, 0.3f, false});
   }
@@ -170,7 +170,7 @@ int run_render(int argc, char** argv) {
     const std::vector<std::string> files = o.list("estimate");
     for (std::size_t i = 0; i < files.size(); ++i) {
       const std::vector<StampedPose> stamped = read_tum(files[i]);
-      if (stamped.empty()) throw Error("render: estimate " + files[i] + " holds no poses");
+      if (stamped.empty()) throw Error("estimate " + files[i] + " holds no poses");
       TrajectoryOverlay t;
       t.label = trajectory_name(files[i]) + (truth ? final_error_note(stamped, *truth) : "");
       t.color = palette_color(kEstimateColors[i % std::size(kEstimateColors)]);

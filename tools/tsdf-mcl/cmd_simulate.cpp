@@ -48,7 +48,7 @@ int run_simulate(int argc, char** argv) {
     return 0;
   }
   o.expect_positional(0, "options only, e.g. --scene office --lidar vlp16 -o DIR");
-  if (!o.has("output")) throw Error("simulate: missing -o DIR (the output dataset directory)");
+  if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
 
   sim::SimulationOptions s;
   s.scene = o.text("scene");
@@ -57,21 +57,21 @@ int run_simulate(int argc, char** argv) {
   s.lidar = o.text("lidar");
   if (o.has("rate")) {
     s.rate_hz = o.number("rate");
-    if (!(s.rate_hz > 0.0)) throw Error("simulate: --rate must be positive");
+    if (!(s.rate_hz > 0.0)) throw Error("--rate must be positive");
   }
   const std::string route = o.text("route");
   if (route != "mapping" && route != "test")
-    throw Error("simulate: --route must be mapping or test, not '" + route + "'");
+    throw Error("--route must be mapping or test, not '" + route + "'");
   s.route = route == "mapping" ? sim::RouteKind::mapping : sim::RouteKind::test;
   s.seed = o.count("seed");
-  if (o.has("duration") && o.has("length")) throw Error("simulate: give --duration or --length, not both");
+  if (o.has("duration") && o.has("length")) throw Error("give --duration or --length, not both");
   if (o.has("duration")) {
     s.duration_s = o.number("duration");
-    if (!(s.duration_s > 0.0)) throw Error("simulate: --duration must be positive");
+    if (!(s.duration_s > 0.0)) throw Error("--duration must be positive");
   }
   if (o.has("length")) {
     s.length_m = o.number("length");
-    if (!(s.length_m > 0.0)) throw Error("simulate: --length must be positive");
+    if (!(s.length_m > 0.0)) throw Error("--length must be positive");
   }
   s.robot.speed = o.number("speed");
   s.robot.sensor_height = o.number("sensor-height");

@@ -32,12 +32,12 @@ Options::Options(std::string command, std::string usage, std::vector<OptionSpec>
     }
     const OptionSpec& s = spec(name);
     if (s.value_name.empty()) {
-      if (value) throw Error(command_ + ": option --" + name + " takes no value");
+      if (value) throw Error("option --" + name + " takes no value");
       values_[name] = "1";
       continue;
     }
     if (!value) {
-      if (i + 1 >= argc) throw Error(command_ + ": option --" + name + " needs a value (" + s.value_name + ")");
+      if (i + 1 >= argc) throw Error("option --" + name + " needs a value (" + s.value_name + ")");
       value = argv[++i];
     }
     values_[name] = *value;
@@ -48,7 +48,7 @@ const OptionSpec& Options::spec(const std::string& name) const {
   for (const auto& s : specs_) {
     if (s.name == name) return s;
   }
-  throw Error(command_ + ": unknown option --" + name + " (see tsdf-mcl " + command_ + " --help)");
+  throw Error("unknown option --" + name + " (see tsdf-mcl " + command_ + " --help)");
 }
 
 std::string Options::help_text() const {
@@ -84,7 +84,7 @@ std::optional<std::string> Options::maybe(const std::string& name) const {
 
 std::string Options::text(const std::string& name) const {
   auto v = maybe(name);
-  if (!v) throw Error(command_ + ": missing required option --" + name);
+  if (!v) throw Error("missing required option --" + name);
   return *v;
 }
 
@@ -94,7 +94,7 @@ double Options::number(const std::string& name) const {
   char* end = nullptr;
   const double d = std::strtod(v.c_str(), &end);
   if (v.empty() || *end != '\0' || errno != 0 || !std::isfinite(d)) {
-    throw Error(command_ + ": --" + name + " expects a number, got '" + v + "'");
+    throw Error("--" + name + " expects a number, got '" + v + "'");
   }
   return d;
 }
@@ -105,14 +105,14 @@ long long Options::integer(const std::string& name) const {
   char* end = nullptr;
   const long long n = std::strtoll(v.c_str(), &end, 10);
   if (v.empty() || *end != '\0' || errno != 0) {
-    throw Error(command_ + ": --" + name + " expects an integer, got '" + v + "'");
+    throw Error("--" + name + " expects an integer, got '" + v + "'");
   }
   return n;
 }
 
 std::size_t Options::count(const std::string& name) const {
   const long long n = integer(name);
-  if (n < 0) throw Error(command_ + ": --" + name + " must not be negative");
+  if (n < 0) throw Error("--" + name + " must not be negative");
   return static_cast<std::size_t>(n);
 }
 
@@ -120,7 +120,7 @@ std::vector<std::string> Options::list(const std::string& name) const {
   std::vector<std::string> out;
   std::stringstream ss(text(name));
   for (std::string item; std::getline(ss, item, ',');) {
-    if (item.empty()) throw Error(command_ + ": --" + name + " has an empty item");
+    if (item.empty()) throw Error("--" + name + " has an empty item");
     out.push_back(item);
   }
   return out;
@@ -132,7 +132,7 @@ std::vector<double> Options::numbers(const std::string& name) const {
     char* end = nullptr;
     const double d = std::strtod(item.c_str(), &end);
     if (*end != '\0' || !std::isfinite(d)) {
-      throw Error(command_ + ": --" + name + " expects comma-separated numbers, got '" + item + "'");
+      throw Error("--" + name + " expects comma-separated numbers, got '" + item + "'");
     }
     out.push_back(d);
   }
@@ -141,7 +141,7 @@ std::vector<double> Options::numbers(const std::string& name) const {
 
 void Options::expect_positional(std::size_t n, const std::string& what) const {
   if (positional_.size() != n) {
-    throw Error(command_ + ": expected " + what + " (see tsdf-mcl " + command_ + " --help)");
+    throw Error("expected " + what + " (see tsdf-mcl " + command_ + " --help)");
   }
 }
 
