@@ -1,7 +1,9 @@
 #pragma once
 // Runs the tsdf-mcl program (path from the TSDF_MCL_CLI compile definition) for command-line tests.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 
@@ -25,6 +27,14 @@ inline CliResult run_cli(const TempDir& dir, const std::string& args) {
   r.out = read_bytes(out);
   r.err = read_bytes(err);
   return r;
+}
+
+// A bad invocation: non-zero exit, exactly one line on stderr, naming what is wrong.
+inline void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {
+  const CliResult r = run_cli(dir, args);
+  EXPECT_NE(r.exit_code, 0) << args;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << "\n" << r.err;
+  EXPECT_NE(r.err.find(words), std::string::npos) << args << ": '" << r.err << "' lacks '" << words << "'";
 }
 
 }  // namespace tsdf_mcl::test

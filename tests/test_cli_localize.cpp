@@ -17,6 +17,7 @@ namespace tsdf_mcl {
 namespace {
 
 using test::CliResult;
+using test::expect_one_line_error;
 using test::run_cli;
 
 using test::TempDir;
@@ -29,13 +30,6 @@ std::string last_line(const std::string& text) {
   return nl == std::string::npos ? s : s.substr(nl + 1);
 }
 
-// Up-front errors: non-zero exit and exactly one line on stderr naming the problem.
-void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {
-  const CliResult r = run_cli(dir, args);
-  EXPECT_NE(r.exit_code, 0) << args;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << "\n" << r.err;
-  EXPECT_NE(r.err.find(words), std::string::npos) << args << ": '" << r.err << "' lacks '" << words << "'";
-}
 
 // Errors found while scans are processed come after the progress lines: the last line names them.
 void expect_error_last(const TempDir& dir, const std::string& args, const std::string& words) {

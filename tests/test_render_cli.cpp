@@ -15,18 +15,11 @@ using Eigen::Vector3f;
 using tsdf_mcl::test::TempDir;
 
 using tsdf_mcl::test::CliResult;
+using tsdf_mcl::test::expect_one_line_error;
 using tsdf_mcl::test::run_cli;
 
 namespace {
 
-
-// A bad invocation: non-zero exit, exactly one line on stderr, naming what is wrong.
-void expect_one_line_error(const TempDir& dir, const std::string& args, const std::string& words) {
-  const CliResult r = run_cli(dir, args);
-  EXPECT_NE(r.exit_code, 0) << args;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << "\n" << r.err;
-  EXPECT_NE(r.err.find(words), std::string::npos) << args << ": '" << r.err << "' lacks '" << words << "'";
-}
 
 // A 4 x 3 m room: floor at z = 0, solid around it up to 1 m.
 tsdf_mcl::TsdfMap small_room() {
