@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/mesh.hpp"
 
 namespace tsdf_mcl::test {
@@ -113,6 +114,20 @@ inline TriangleMesh icosphere(const Eigen::Vector3f& center, float radius, int l
   for (const auto& p : v) m.vertices.push_back(center + radius * p);
   m.triangles = std::move(f);
   return m;
+}
+
+// Reading `file` with `read` must throw one line that names the file and contains `words`.
+template <typename ReadFn>
+void expect_file_error(const std::filesystem::path& file, const std::string& words, ReadFn read) {
+  try {
+    read(file);
+    ADD_FAILURE() << "no error for " << file;
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(file.string()), std::string::npos) << what;
+    EXPECT_NE(what.find(words), std::string::npos) << "'" << what << "' lacks '" << words << "'";
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
 }
 
 }  // namespace tsdf_mcl::test

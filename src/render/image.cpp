@@ -93,6 +93,18 @@ class CoverageMask {
   std::vector<float> coverage_;
 };
 
+// A mask over the bounding box of a polyline's finite points, grown by the stroke radius (plus a pixel of
+// anti-aliasing).
+CoverageMask mask_around(const Image& image, const std::vector<Eigen::Vector2f>& points, float r) {
+  Eigen::Vector2f lo = points.front(), hi = points.front();
+  for (const auto& p : points) {
+    if (!p.allFinite()) continue;
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return CoverageMask(image, lo.x() - r - 1.0f, lo.y() - r - 1.0f, hi.x() + r + 1.0f, hi.y() + r + 1.0f);
+}
+
 // Lines thinner than a pixel are drawn one pixel wide and correspondingly fainter, which keeps their apparent
 // weight and avoids broken, aliased hairlines.
 void thin_line_compensation(float& width, float& alpha) {
@@ -237,13 +249,7 @@ void Image::draw_polyline(const std::vector<Eigen::Vector2f>& points, Rgb color,
   if (points.empty() || empty()) return;
   thin_line_compensation(width, alpha);
   const float r = width / 2.0f;
-  Eigen::Vector2f lo = points.front(), hi = points.front();
-  for (const auto& p : points) {
-    if (!p.allFinite()) continue;
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  CoverageMask mask(*this, lo.x() - r - 1.0f, lo.y() - r - 1.0f, hi.x() + r + 1.0f, hi.y() + r + 1.0f);
+  CoverageMask mask = mask_around(*this, points, r);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector2f& a = points[i];
     const Eigen::Vector2f& b = i + 1 < points.size() ? points[i + 1] : points[i];
@@ -266,13 +272,7 @@ void Image::draw_dashed_polyline(const std::vector<Eigen::Vector2f>& points, Rgb
   }
   thin_line_compensation(width, alpha);
   const float r = width / 2.0f;
-  Eigen::Vector2f lo = points.front(), hi = points.front();
-  for (const auto& p : points) {
-    if (!p.allFinite()) continue;
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  CoverageMask mask(*this, lo.x() - r - 1.0f, lo.y() - r - 1.0f, hi.x() + r + 1.0f, hi.y() + r + 1.0f);
+  CoverageMask mask = mask_around(*this, points, r);
   // Round caps add r at both ends of a dash; shortening the dash by them keeps dash and gap visibly equal.
   const float cap = std::min(r, dash_length / 4.0f);
   float phase = 0.0f;  // arc length since the start of the current dash-gap period
