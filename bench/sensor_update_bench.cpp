@@ -76,6 +76,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
     } else {
       EvaluatorOptions options;
       options.backend = parse_backend(backend);
+      options.map_texel_views = config.map_texel_views;
       evaluator = make_evaluator(map, options);
       evaluator->reserve(max_particles, points.size());
       evaluator->set_points(points);
@@ -115,6 +116,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"repetitions", config.repetitions},
           {"likelihood", config.model.likelihood == Likelihood::kProduct ? "product" : "sum"},
           {"interpolation", config.model.interpolation == Interpolation::kNearest ? "nearest" : "trilinear"},
+          {"map_reads", backend != "vulkan" ? nlohmann::json(nullptr) : nlohmann::json(config.map_texel_views ? "texel" : "storage")},
           {"map", config.map_name},
           {"scan", config.scan_name},
       };

@@ -20,6 +20,7 @@ struct BenchConfig {
   std::size_t warmup = 2;
   unsigned seed = 1;
   EndpointModel model;
+  bool map_texel_views = true;  // vulkan: read the map through texel views (false: the storage buffers)
   std::string map_name;
   std::string scan_name;
 };

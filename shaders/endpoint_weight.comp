@@ -18,6 +18,10 @@ layout(constant_id = 4) const uint POOL_CHUNKS = 1u;    // chunks in use (1..4):
 // lanes for every storage-buffer load).
 layout(constant_id = 5) const uint UNIFORM_POINTS = 0u;
 layout(constant_id = 6) const uint UNIFORM_POINT_CAPACITY = 1u;
+// The map buffers are read through uniform texel-buffer views of the same storage buffers (bindings 8-12) when
+// set: lavapipe serves a texel fetch with a SIMD gather, but every storage-buffer load with a loop over the lanes.
+layout(constant_id = 7) const uint MAP_TEXEL_VIEWS = 0u;
+layout(constant_id = 8) const uint BATCH = 4u;  // nearest lookup: points whose map reads are issued together
 
 // Particle structure-of-arrays: x y z qw qx qy qz log_weight, each `capacity` floats.
 layout(std430, binding = 0) buffer Particles { float particle[]; };
@@ -28,6 +32,11 @@ layout(std430, binding = 4) readonly buffer Pool1 { uint pool1[]; };
 layout(std430, binding = 5) readonly buffer Pool2 { uint pool2[]; };
 layout(std430, binding = 6) readonly buffer Pool3 { uint pool3[]; };
 layout(std140, binding = 7) uniform UniformPoints { vec4 uniform_point[UNIFORM_POINT_CAPACITY]; };
+layout(binding = 8) uniform usamplerBuffer coarse_view;
+layout(binding = 9) uniform usamplerBuffer pool_view0;
+layout(binding = 10) uniform usamplerBuffer pool_view1;
+layout(binding = 11) uniform usamplerBuffer pool_view2;
+layout(binding = 12) uniform usamplerBuffer pool_view3;
 
 // Mirrored by gpu::EndpointPushConstants (src/gpu/push_constants.hpp).
 layout(push_constant) uniform Params {
@@ -47,39 +56,85 @@ layout(push_constant) uniform Params {
   float weight_exponent;
 } pc;
 
-uint pool_word(uint block, uint word) {
-  if (POOL_CHUNKS == 1u) return pool0[block * BLOCK_WORDS + word];
-  const uint chunk = block >> CHUNK_SHIFT;
-  const uint index = ((block & ((1u << CHUNK_SHIFT) - 1u)) * BLOCK_WORDS) + word;
+uint pool_chunk_word(uint chunk, uint index) {
+  if (MAP_TEXEL_VIEWS != 0u) {
+    const int at = int(index);
+    if (chunk == 0u) return texelFetch(pool_view0, at).x;
+    if (POOL_CHUNKS == 2u || chunk == 1u) return texelFetch(pool_view1, at).x;
+    if (POOL_CHUNKS == 3u || chunk == 2u) return texelFetch(pool_view2, at).x;
+    return texelFetch(pool_view3, at).x;
+  }
   if (chunk == 0u) return pool0[index];
   if (POOL_CHUNKS == 2u || chunk == 1u) return pool1[index];
   if (POOL_CHUNKS == 3u || chunk == 2u) return pool2[index];
   return pool3[index];
 }
 
-// Quantized distance of voxel v, or UNKNOWN_VALUE outside the map / in unknown space. The pool read always
-// happens (clamped in range: the first block always exists) and the result is selected. The coarse entry is
-// cached per invocation: consecutive scan points mostly fall into the same block, and a skipped load is a real
-// saving on lavapipe, where each storage-buffer load is a loop over the lanes (measured 12-20 % there).
-int fetch(ivec3 v, inout uint cached_cell, inout uint cached_entry) {
-  // Unsigned wrap-around turns "below the box" into "beyond the box": the bounds guard is one compare per axis.
+uint pool_word(uint block, uint word) {
+  if (POOL_CHUNKS == 1u) return pool_chunk_word(0u, block * BLOCK_WORDS + word);
+  return pool_chunk_word(block >> CHUNK_SHIFT, ((block & ((1u << CHUNK_SHIFT) - 1u)) * BLOCK_WORDS) + word);
+}
+
+uint coarse_entry(uint cell) { return MAP_TEXEL_VIEWS != 0u ? texelFetch(coarse_view, int(cell)).x : coarse[cell]; }
+
+// Where voxel v lies: inside the map box or not, its coarse cell and its index within the block. Unsigned
+// wrap-around turns "below the box" into "beyond the box", so the bounds guard is one compare per axis; outside
+// voxels are clamped so that every read stays in range (the first block always exists).
+void locate(ivec3 v, out bool inside, out uint cell, out uint local) {
   const uvec3 r = uvec3(v - pc.min_voxel);
-  const bool inside = all(lessThan(r, pc.dims_voxels));
+  inside = all(lessThan(r, pc.dims_voxels));
   const uvec3 rc = min(r, pc.dims_voxels - 1u);
-  const uint cell = (rc.x >> 3) + pc.dims_blocks_x * ((rc.y >> 3) + pc.dims_blocks_y * (rc.z >> 3));
+  cell = (rc.x >> 3) + pc.dims_blocks_x * ((rc.y >> 3) + pc.dims_blocks_y * (rc.z >> 3));
+  local = (rc.x & 7u) + 8u * ((rc.y & 7u) + 8u * (rc.z & 7u));
+}
+
+bool allocated(bool inside, uint entry) { return inside && entry < FREE_BLOCK; }
+
+uint voxel_word(bool inside, uint entry, uint local) {
+  return pool_word(allocated(inside, entry) ? entry : 0u, local >> 1);
+}
+
+// Quantized distance, or UNKNOWN_VALUE outside the map / in unknown space: selected, never branched on.
+int decode(bool inside, uint entry, uint local, uint word) {
+  const int value = bitfieldExtract(int(word), int((local & 1u) << 4), 16);
+  return allocated(inside, entry) ? value : ((inside && entry == FREE_BLOCK) ? QUANT_MAX : UNKNOWN_VALUE);
+}
+
+// One voxel's quantized distance. The coarse entry is cached per invocation: consecutive reads mostly fall into
+// the same block, and lavapipe skips the masked-off lanes of a storage-buffer load (measured 12-20 % there).
+int fetch(ivec3 v, inout uint cached_cell, inout uint cached_entry) {
+  bool inside;
+  uint cell, local;
+  locate(v, inside, cell, local);
   if (cell != cached_cell) {
-    cached_entry = coarse[cell];
+    cached_entry = coarse_entry(cell);
     cached_cell = cell;
   }
-  const uint entry = cached_entry;
-  const bool allocated = inside && entry < FREE_BLOCK;
-  const uint l = (rc.x & 7u) + 8u * ((rc.y & 7u) + 8u * (rc.z & 7u));
-  const uint word = pool_word(allocated ? entry : 0u, l >> 1);
-  const int value = bitfieldExtract(int(word), int((l & 1u) << 4), 16);
-  return allocated ? value : ((inside && entry == FREE_BLOCK) ? QUANT_MAX : UNKNOWN_VALUE);
+  return decode(inside, cached_entry, local, voxel_word(inside, cached_entry, local));
 }
 
 float likelihood(float d) { return pc.hit_scale * exp(d * d * pc.neg_inv_2s2) + pc.p_rand; }
+
+// A point's term of the sum: its log-likelihood (product form) or likelihood (summed form).
+float point_term(float dist) {
+  const float p_point = likelihood(dist);
+  return LIKELIHOOD == 0u ? log(p_point) : p_point;
+}
+
+float unknown_term() { return LIKELIHOOD == 0u ? pc.log_p_rand : pc.p_rand; }
+
+float nearest_term(int q) { return q == UNKNOWN_VALUE ? unknown_term() : point_term(float(q) * pc.quant_step); }
+
+vec3 scan_point(uint j) { return UNIFORM_POINTS != 0u ? uniform_point[j].xyz : point[j].xyz; }
+
+// Point p (sensor frame) in grid units of the map, under the particle's rotation r and translation t. Every
+// operation is `precise` (no FMA contraction) so that the CPU picks the same voxel.
+vec3 to_grid(vec3 p, vec3 t, float r0, float r1, float r2, float r3, float r4, float r5, float r6, float r7, float r8) {
+  precise float gx = (r0 * p.x + r1 * p.y + r2 * p.z + t.x) * pc.inv_voxel;
+  precise float gy = (r3 * p.x + r4 * p.y + r5 * p.z + t.y) * pc.inv_voxel;
+  precise float gz = (r6 * p.x + r7 * p.y + r8 * p.z + t.z) * pc.inv_voxel;
+  return vec3(gx, gy, gz);
+}
 
 void main() {
   const uint i = gl_GlobalInvocationID.x;
@@ -99,26 +154,35 @@ void main() {
   precise float r6 = 2.0 * (xz - wy), r7 = 2.0 * (yz + wx), r8 = 1.0 - 2.0 * (xx + yy);
 
   float acc = 0.0;
+  uint j = 0u;
+  if (INTERPOLATION == 0u && BATCH > 1u) {
+    // Nearest lookup, BATCH points at a time: all their coarse reads, then all their pool reads, then the sums
+    // (in point order, as on the CPU). Independent reads issued together overlap their cache misses, which
+    // bound this loop on lavapipe; a GPU gets the same latency hiding from it.
+    for (; j + BATCH <= pc.point_count; j += BATCH) {
+      bool inside[BATCH];
+      uint cell[BATCH], local[BATCH], entry[BATCH], word[BATCH];
+      for (uint k = 0u; k < BATCH; ++k) {
+        precise vec3 g = to_grid(scan_point(j + k), t, r0, r1, r2, r3, r4, r5, r6, r7, r8);
+        precise vec3 n = floor(g + 0.5);
+        locate(ivec3(n), inside[k], cell[k], local[k]);
+      }
+      for (uint k = 0u; k < BATCH; ++k) entry[k] = coarse_entry(cell[k]);
+      for (uint k = 0u; k < BATCH; ++k) word[k] = voxel_word(inside[k], entry[k], local[k]);
+      for (uint k = 0u; k < BATCH; ++k) acc += nearest_term(decode(inside[k], entry[k], local[k], word[k]));
+    }
+  }
   uint cached_cell = 0xFFFFFFFFu;
   uint cached_entry = 0u;
-  for (uint j = 0u; j < pc.point_count; ++j) {
-    const vec3 p = UNIFORM_POINTS != 0u ? uniform_point[j].xyz : point[j].xyz;
-    precise float gx = (r0 * p.x + r1 * p.y + r2 * p.z + t.x) * pc.inv_voxel;
-    precise float gy = (r3 * p.x + r4 * p.y + r5 * p.z + t.y) * pc.inv_voxel;
-    precise float gz = (r6 * p.x + r7 * p.y + r8 * p.z + t.z) * pc.inv_voxel;
+  for (; j < pc.point_count; ++j) {
+    precise vec3 g = to_grid(scan_point(j), t, r0, r1, r2, r3, r4, r5, r6, r7, r8);
     float v;
     if (INTERPOLATION == 0u) {
-      precise vec3 n = floor(vec3(gx, gy, gz) + 0.5);
-      const int q = fetch(ivec3(n), cached_cell, cached_entry);
-      if (q == UNKNOWN_VALUE) {
-        v = LIKELIHOOD == 0u ? pc.log_p_rand : pc.p_rand;
-      } else {
-        const float p_point = likelihood(float(q) * pc.quant_step);
-        v = LIKELIHOOD == 0u ? log(p_point) : p_point;
-      }
+      precise vec3 n = floor(g + 0.5);
+      v = nearest_term(fetch(ivec3(n), cached_cell, cached_entry));
     } else {
-      precise vec3 b = floor(vec3(gx, gy, gz));
-      precise vec3 f = vec3(gx, gy, gz) - b;
+      precise vec3 b = floor(g);
+      precise vec3 f = g - b;
       const ivec3 base = ivec3(b);
       precise float weight = 0.0;
       precise float sum = 0.0;
@@ -131,11 +195,10 @@ void main() {
         sum += w * float(q);
       }
       if (weight < 1e-3) {
-        v = LIKELIHOOD == 0u ? pc.log_p_rand : pc.p_rand;
+        v = unknown_term();
       } else {
         precise float dist = sum / weight * pc.quant_step;
-        const float p_point = likelihood(dist);
-        v = LIKELIHOOD == 0u ? log(p_point) : p_point;
+        v = point_term(dist);
       }
     }
     acc += v;

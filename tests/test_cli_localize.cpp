@@ -1,4 +1,4 @@
-// The localize and evaluate commands end to end on a small synthetic dataset, and their answers to bad input.
+// The localize, evaluate and bench commands end to end on a small synthetic dataset, and their answers to bad input.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -232,6 +232,53 @@ TEST(CliEvaluate, BadInputGivesOneClearError) {
   std::filesystem::remove(no_truth / "poses.txt");
   expect_one_line_error(out, "evaluate --estimate " + (out / "late.tum").string() + " --dataset " + no_truth.string(),
                         "has no poses.txt");
+}
+
+// bench: one JSON line per backend and particle count, with the fields DESIGN.md names.
+TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string base = "bench --map " + f.map + " --dataset " + f.dataset +
+                           " --scan 1 --particles 100,300 --points 64 --repetitions 1 --warmup 1";
+  for (const std::string map_reads : {"texel", "storage"}) {
+    const CliResult r = run_cli(out, base + " --backend reference,cpu,vulkan --map-reads " + map_reads);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::istringstream lines(r.out);
+    std::string line;
+    std::vector<nlohmann::json> rows;
+    while (std::getline(lines, line)) rows.push_back(nlohmann::json::parse(line));
+    ASSERT_EQ(rows.size(), 6u) << r.out;
+    for (const auto& row : rows) {
+      EXPECT_EQ(row["points"], 64);
+      EXPECT_GT(row["median_ms"].get<double>(), 0.0);
+      EXPECT_GT(row["evals_per_s"].get<double>(), 0.0);
+      if (row["backend"] == "vulkan") {
+        EXPECT_EQ(row["map_reads"], map_reads);
+        EXPECT_FALSE(row["gpu_ms"].is_null()) << "lavapipe has timestamps";
+      } else {
+        EXPECT_TRUE(row["map_reads"].is_null());
+      }
+    }
+    EXPECT_EQ(rows[0]["backend"], "reference");
+    EXPECT_EQ(rows[1]["particles"], 300);
+    EXPECT_EQ(rows[5]["backend"], "vulkan");
+  }
+}
+
+TEST(CliBench, BadInputGivesOneClearError) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string base = "bench --map " + f.map + " --dataset " + f.dataset + " --particles 10 --points 8";
+  expect_one_line_error(out, base + " --backend cuda", "unknown backend 'cuda'");
+  expect_one_line_error(out, base + " --map-reads fast", "--map-reads must be texel or storage");
+  expect_one_line_error(out, base + " --likelihood max", "--likelihood must be product or sum");
+  expect_one_line_error(out, base + " --interpolation cubic", "--interpolation must be nearest or trilinear");
+  expect_one_line_error(out, base + " --spread far", "--spread must be local or global");
+  expect_one_line_error(out, base + " --particles 0", "--particles needs positive integers");
+  expect_one_line_error(out, base + " --points 0", "--points must be positive");
+  expect_one_line_error(out, base + " --scan 999", "--scan 999 but the dataset has 24 scans");
+  expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset, "missing.tsdf");
+  expect_one_line_error(out, "bench --map " + f.map + " --dataset " + (out / "nowhere").string(), "nowhere");
 }
 
 }  // namespace

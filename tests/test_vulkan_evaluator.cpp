@@ -10,23 +10,29 @@
 namespace tsdf_mcl {
 namespace {
 
-EvaluatorOptions vulkan_options(bool subgroup = true, bool uniform_points = true) {
+EvaluatorOptions vulkan_options() {
   EvaluatorOptions o;
   o.backend = Backend::kVulkan;
   o.validation = true;
-  o.subgroup_reduction = subgroup;
-  o.uniform_points = uniform_points;
   o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
   return o;
 }
 
-std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, bool subgroup = true, bool uniform_points = true) {
+std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, const EvaluatorOptions& options = vulkan_options()) {
   try {
-    return make_evaluator(map, vulkan_options(subgroup, uniform_points));
+    return make_evaluator(map, options);
   } catch (const Error& e) {
     ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
     return nullptr;
   }
+}
+
+// A binding cap that splits the map's block pool into three chunks (a power of two of blocks each), as a map
+// beyond maxStorageBufferRange would be.
+std::uint64_t three_chunk_binding_bytes(const TsdfMap& map) {
+  std::uint64_t blocks = 1;
+  while (3 * blocks < map.block_count()) blocks *= 2;
+  return blocks * TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
 }
 
 void copy_particles(const ParticleArrays& from, const ParticleArrays& to, std::size_t n) {
@@ -44,23 +50,30 @@ void expect_summaries_close(const WeightSummary& gpu, const WeightSummary& cpu) 
 struct Variant {
   Likelihood likelihood;
   Interpolation interpolation;
-  bool uniform_points;  // points through the uniform-buffer view (scans up to 4096 points) or the storage buffer
+  bool uniform_points;   // points through the uniform-buffer view (scans up to 4096 points) or the storage buffer
+  bool map_texel_views;  // map through texel-buffer views or the storage buffers
+  bool split_pool;       // block pool in three chunks
 };
 
 class VulkanVsCpu : public ::testing::TestWithParam<Variant> {};
 
 TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   const TsdfMap map = test::make_room_map();
-  auto gpu = make_vulkan(map, true, GetParam().uniform_points);
+  EvaluatorOptions options = vulkan_options();
+  options.uniform_points = GetParam().uniform_points;
+  options.map_texel_views = GetParam().map_texel_views;
+  if (GetParam().split_pool) options.max_map_binding_bytes = three_chunk_binding_bytes(map);
+  auto gpu = make_vulkan(map, options);
   ASSERT_TRUE(gpu);
   CpuEvaluator cpu(map, 2);
   std::mt19937 rng(7);
   const std::size_t n = 2000;
-  gpu->reserve(n, 512);
-  cpu.reserve(n, 512);
+  const std::size_t points = 515;  // not a multiple of the shader's batch of points: the tail loop runs too
+  gpu->reserve(n, points);
+  cpu.reserve(n, points);
   test::random_particles(cpu.particles(), n, rng, Eigen::Vector3f(-3.4f, -2.4f, -0.3f), Eigen::Vector3f(3.4f, 2.4f, 3.3f));
   copy_particles(cpu.particles(), gpu->particles(), n);
-  const auto scan = test::random_scan(512, rng);
+  const auto scan = test::random_scan(points, rng);
   gpu->set_points(scan);
   cpu.set_points(scan);
   EndpointModel model;
@@ -81,15 +94,20 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
-                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest, true},
-                                           Variant{Likelihood::kProduct, Interpolation::kNearest, false},
-                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true},
-                                           Variant{Likelihood::kSum, Interpolation::kNearest, true},
-                                           Variant{Likelihood::kSum, Interpolation::kTrilinear, false}),
+                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, false},
+                                           Variant{Likelihood::kProduct, Interpolation::kNearest, false, false, false},
+                                           Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, true},
+                                           Variant{Likelihood::kProduct, Interpolation::kNearest, true, false, true},
+                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, true, false},
+                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, false, true},
+                                           Variant{Likelihood::kSum, Interpolation::kNearest, true, false, false},
+                                           Variant{Likelihood::kSum, Interpolation::kTrilinear, false, true, true}),
                          [](const ::testing::TestParamInfo<Variant>& p) {
                            return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
                                   (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear") +
-                                  (p.param.uniform_points ? "_uniform_points" : "_storage_points");
+                                  (p.param.uniform_points ? "_uniform_points" : "_storage_points") +
+                                  (p.param.map_texel_views ? "_texel_map" : "_storage_map") +
+                                  (p.param.split_pool ? "_split_pool" : "");
                          });
 
 // reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
@@ -98,7 +116,9 @@ class VulkanReduction : public ::testing::TestWithParam<bool> {};
 
 TEST_P(VulkanReduction, AwkwardParticleCounts) {
   const TsdfMap map = test::make_room_map();
-  auto gpu = make_vulkan(map, GetParam());
+  EvaluatorOptions options = vulkan_options();
+  options.subgroup_reduction = GetParam();
+  auto gpu = make_vulkan(map, options);
   ASSERT_TRUE(gpu);
   std::mt19937 rng(9);
   const auto scan = test::random_scan(8, rng);

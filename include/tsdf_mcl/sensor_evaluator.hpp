@@ -105,6 +105,13 @@ struct EvaluatorOptions {
   // Vulkan: read scan points through a uniform-buffer view of their storage buffer when they fit (up to 4096);
   // false keeps to the storage-buffer binding (both paths are tested).
   bool uniform_points = true;
+  // Vulkan: read the map's storage buffers through uniform texel-buffer views of the same memory (lavapipe
+  // gathers texel fetches in SIMD but loops over the lanes for storage-buffer loads); false reads the storage
+  // buffers directly (both paths are tested).
+  bool map_texel_views = true;
+  // Vulkan: the largest map binding in bytes (0: the device's maxStorageBufferRange). Larger block pools are split
+  // into up to four chunks; tests set a small value to exercise the split on a small map.
+  std::uint64_t max_map_binding_bytes = 0;
 };
 
 // Builds the evaluator. With kAuto, tries Vulkan and falls back to the CPU; `note` (if given) receives one

@@ -73,6 +73,33 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
   return *this;
 }
 
+TexelView::TexelView(const VulkanContext& ctx, const Buffer& buffer) : device_(ctx.device()) {
+  VkBufferViewCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+  info.buffer = buffer.handle();
+  info.format = VK_FORMAT_R32_UINT;
+  info.offset = 0;
+  info.range = VK_WHOLE_SIZE;
+  check(vkCreateBufferView(device_, &info, nullptr, &view_), "vkCreateBufferView");
+}
+
+TexelView::~TexelView() { release(); }
+
+void TexelView::release() {
+  if (view_) vkDestroyBufferView(device_, view_, nullptr);
+  view_ = VK_NULL_HANDLE;
+}
+
+TexelView::TexelView(TexelView&& o) noexcept { *this = std::move(o); }
+
+TexelView& TexelView::operator=(TexelView&& o) noexcept {
+  if (this != &o) {
+    release();
+    device_ = std::exchange(o.device_, VK_NULL_HANDLE);
+    view_ = std::exchange(o.view_, VK_NULL_HANDLE);
+  }
+  return *this;
+}
+
 void Buffer::flush() const {
   if (coherent_ || !mapped_) return;
   VkMappedMemoryRange range{VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE};

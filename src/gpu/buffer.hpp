@@ -41,6 +41,25 @@ class Buffer {
   bool coherent_ = true;
 };
 
+// A uniform texel-buffer view (R32_UINT words) of a whole buffer made with VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT.
+class TexelView {
+ public:
+  TexelView() = default;
+  TexelView(const VulkanContext& ctx, const Buffer& buffer);
+  ~TexelView();
+  TexelView(TexelView&& other) noexcept;
+  TexelView& operator=(TexelView&& other) noexcept;
+  TexelView(const TexelView&) = delete;
+  TexelView& operator=(const TexelView&) = delete;
+
+  const VkBufferView& handle() const { return view_; }  // a reference: descriptor writes point at it
+
+ private:
+  void release();
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkBufferView view_ = VK_NULL_HANDLE;
+};
+
 // Copies host data into a buffer: directly when it is mapped, else through a temporary staging buffer and a
 // one-off command buffer (only at set-up, never per update).
 void upload(const VulkanContext& ctx, VkCommandPool pool, const Buffer& dst, const void* data, VkDeviceSize bytes);

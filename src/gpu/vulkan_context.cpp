@@ -178,6 +178,7 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
                                 (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT);
     caps_.max_storage_buffer_range = p.limits.maxStorageBufferRange;
     caps_.max_uniform_buffer_range = p.limits.maxUniformBufferRange;
+    caps_.max_texel_buffer_elements = p.limits.maxTexelBufferElements;
     caps_.max_workgroup_size_x = p.limits.maxComputeWorkGroupSize[0];
     caps_.max_workgroup_invocations = p.limits.maxComputeWorkGroupInvocations;
     caps_.max_workgroup_count_x = p.limits.maxComputeWorkGroupCount[0];

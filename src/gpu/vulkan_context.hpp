@@ -26,6 +26,7 @@ struct DeviceCaps {
   std::uint64_t timestamp_mask = ~0ull;
   std::uint64_t max_storage_buffer_range = 0;
   std::uint64_t max_uniform_buffer_range = 0;
+  std::uint32_t max_texel_buffer_elements = 0;
   std::uint32_t max_workgroup_size_x = 0;
   std::uint32_t max_workgroup_invocations = 0;
   std::uint32_t max_workgroup_count_x = 0;

@@ -36,8 +36,12 @@ constexpr std::uint32_t kEndpointWorkgroup = 64;
 constexpr std::uint32_t kReduceWorkgroup = 256;
 constexpr std::uint32_t kReduceItems = 4;
 constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
-constexpr std::uint32_t kEndpointBindings = 8;  // particles, points, coarse, pool0..3, points as a uniform buffer
+// particles, points, coarse, pool0..3, points as a uniform buffer, texel views of coarse and pool0..3
+constexpr std::uint32_t kEndpointBindings = 13;
 constexpr std::uint32_t kMaxPoolChunks = 4;
+constexpr std::uint32_t kStorageBindings = 7;
+constexpr std::uint32_t kCoarseTexelBinding = 8;
+constexpr std::uint32_t kTexelBindings = 1 + kMaxPoolChunks;
 constexpr std::uint32_t kReduceBindings = 3;    // particles, records in, records out
 constexpr std::uint32_t kQueries = 3;           // before weighting, after weighting, after reduction
 constexpr std::size_t kParticleArrays = 8;      // x y z qw qx qy qz log_weight
@@ -86,6 +90,9 @@ class VulkanEvaluator final : public SensorEvaluator {
 
   gpu::Buffer coarse_;
   std::vector<gpu::Buffer> pool_chunks_;
+  bool map_texel_views_;
+  gpu::TexelView coarse_view_;
+  std::vector<gpu::TexelView> pool_views_;
   std::uint32_t chunk_shift_ = 0;
   gpu::Buffer particle_sets_[2];
   std::size_t capacity_ = 0;
@@ -111,7 +118,8 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     : ctx_(std::make_unique<gpu::VulkanContext>(options)),
       map_(map),
       map_view_(map),
-      notify_validation_(!options.on_validation_message) {
+      notify_validation_(!options.on_validation_message),
+      map_texel_views_(options.map_texel_views) {
   if (map.empty()) throw Error("the map is empty");
   const VkDevice dev = ctx_->device();
   const gpu::DeviceCaps& caps = ctx_->caps();
@@ -142,7 +150,8 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
 
     // The map, uploaded once: the coarse index in one buffer, the block pool split into chunks of a power-of-two
     // number of blocks so that no binding exceeds maxStorageBufferRange (128 MiB on lavapipe).
-    const std::uint64_t range = std::min<std::uint64_t>(caps.max_storage_buffer_range, 1ull << 30);
+    std::uint64_t range = std::min<std::uint64_t>(caps.max_storage_buffer_range, 1ull << 30);
+    if (options.max_map_binding_bytes > 0) range = std::min(range, options.max_map_binding_bytes);
     const std::uint64_t coarse_bytes = map.coarse_index().size() * sizeof(std::uint32_t);
     if (coarse_bytes > range) {
       throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) + " MiB) exceeds the device's storage buffer range");
@@ -158,16 +167,22 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
                   std::to_string(kMaxPoolChunks) + " storage buffers of " + std::to_string((blocks_per_chunk * block_bytes) >> 20) +
                   " MiB on this device");
     }
-    coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal);
+    const std::uint64_t max_texels = std::uint64_t{caps.max_texel_buffer_elements} * sizeof(std::uint32_t);
+    if (coarse_bytes > max_texels || (block_bytes << chunk_shift_) > max_texels) map_texel_views_ = false;
+    const VkBufferUsageFlags map_usage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
+    coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
     gpu::upload(*ctx_, command_pool_, coarse_, map.coarse_index().data(), coarse_bytes);
     for (std::size_t c = 0; c < chunks; ++c) {
       const std::size_t first = c * blocks_per_chunk;
       const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
       const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
-      pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal);
+      pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
       gpu::upload(*ctx_, command_pool_, pool_chunks_.back(),
                   map.block_pool().data() + first * TsdfMap::kWordsPerBlock, count * block_bytes);
     }
+    // The views are bound even when the storage bindings are read (the layout has both): they cost nothing.
+    coarse_view_ = gpu::TexelView(*ctx_, coarse_);
+    for (const gpu::Buffer& chunk : pool_chunks_) pool_views_.emplace_back(*ctx_, chunk);
 
     reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
         *ctx_,
@@ -179,12 +194,13 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     EndpointModel default_model;
     endpoint_pipeline(default_model, uniform_point_capacity_ > 0);
 
-    const VkDescriptorPoolSize sizes[2] = {
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * (kEndpointBindings - 1) + 6 * kReduceBindings},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2}};
+    const VkDescriptorPoolSize sizes[3] = {
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * kStorageBindings + 6 * kReduceBindings},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * kTexelBindings}};
     VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dp.maxSets = 8;
-    dp.poolSizeCount = 2;
+    dp.poolSizeCount = 3;
     dp.pPoolSizes = sizes;
     gpu::check(vkCreateDescriptorPool(dev, &dp, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
     const VkDescriptorSetLayout endpoint_layout = endpoint_pipelines_.begin()->second->set_layout();
@@ -231,6 +247,8 @@ void VulkanEvaluator::release() {
   queries_ = VK_NULL_HANDLE;
   fence_ = VK_NULL_HANDLE;
   command_pool_ = VK_NULL_HANDLE;
+  coarse_view_ = {};
+  pool_views_.clear();
   coarse_ = {};
   pool_chunks_.clear();
   for (auto& b : particle_sets_) b = {};
@@ -255,12 +273,14 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
   if (!slot) {
     std::vector<VkDescriptorType> bindings(kEndpointBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     bindings[kPointsUniformBinding] = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    for (std::uint32_t b = 0; b < kTexelBindings; ++b) bindings[kCoarseTexelBinding + b] = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
     slot = std::make_unique<gpu::ComputePipeline>(
         *ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)}, bindings,
         sizeof(gpu::EndpointPushConstants),
         std::vector<std::uint32_t>{kEndpointWorkgroup, interpolation, likelihood, chunk_shift_,
                                    static_cast<std::uint32_t>(pool_chunks_.size()), uniform,
-                                   static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1))});
+                                   static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1)),
+                                   map_texel_views_ ? 1u : 0u});
   }
   return *slot;
 }
@@ -331,7 +351,7 @@ void VulkanEvaluator::grow_records(std::size_t particle_capacity) {
 void VulkanEvaluator::write_descriptor_sets() {
   std::vector<VkDescriptorBufferInfo> infos;
   std::vector<VkWriteDescriptorSet> writes;
-  infos.reserve(2 * kEndpointBindings + 6 * kReduceBindings);
+  infos.reserve(2 * kEndpointBindings + 6 * kReduceBindings);  // no reallocation: writes point into it
   auto bind = [&](VkDescriptorSet set, std::uint32_t binding, const gpu::Buffer& buffer,
                   VkDescriptorType type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
     const VkDeviceSize range =
@@ -355,6 +375,17 @@ void VulkanEvaluator::write_descriptor_sets() {
       bind(endpoint_sets_[s], 3 + c, pool_chunks_[c < pool_chunks_.size() ? c : 0]);
     }
     bind(endpoint_sets_[s], kPointsUniformBinding, points_, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    for (std::uint32_t b = 0; b < kTexelBindings; ++b) {
+      // Like the storage bindings, unused pool views repeat the first chunk's.
+      const gpu::TexelView& v = b == 0 ? coarse_view_ : pool_views_[b - 1 < pool_views_.size() ? b - 1 : 0];
+      VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+      w.dstSet = endpoint_sets_[s];
+      w.dstBinding = kCoarseTexelBinding + b;
+      w.descriptorCount = 1;
+      w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+      w.pTexelBufferView = &v.handle();
+      writes.push_back(w);
+    }
     bind(reduce_sets_[s][0], 0, particle_sets_[s]);
     bind(reduce_sets_[s][0], 1, records_[1]);
     bind(reduce_sets_[s][0], 2, records_[0]);

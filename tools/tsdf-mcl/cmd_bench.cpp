@@ -26,6 +26,7 @@ int run_bench(int argc, char** argv) {
                 {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
                 {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
                 {"seed", "N", "1", "random seed for the particle placement"},
+                {"map-reads", "texel|storage", "texel", "vulkan: read the map through texel-buffer views or the storage buffers"},
             },
             argc, argv, 2);
   if (o.help_requested()) {
@@ -57,6 +58,9 @@ int run_bench(int argc, char** argv) {
   if (interpolation != "nearest" && interpolation != "trilinear") throw Error("--interpolation must be nearest or trilinear");
   config.model.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   config.model.validate();
+  const std::string map_reads = o.text("map-reads");
+  if (map_reads != "texel" && map_reads != "storage") throw Error("--map-reads must be texel or storage");
+  config.map_texel_views = map_reads == "texel";
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));
