@@ -30,6 +30,12 @@ cmake --preset release >/dev/null
 cmake --build --preset release -j "$(nproc)"
 cli=build/release/tools/tsdf-mcl
 out=demo-out
+# A rerun starts over: the simulator refuses to write scans into a dataset that exists. Only what this script
+# writes is removed.
+if [ -e "$out/mapping" ] || [ -e "$out/test" ] || [ -e "$out/run" ]; then
+  echo "demo.sh: replacing the previous run's results in $out/" >&2
+  rm -rf "$out/mapping" "$out/test" "$out/run" "$out/office.tsdf" "$out"/*.png "$out"/*.log "$out/metrics.json"
+fi
 mkdir -p "$out"
 
 step "3/7 simulating the office: mapping run and test run ($lidar)"
