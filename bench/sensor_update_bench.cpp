@@ -116,7 +116,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"repetitions", config.repetitions},
           {"likelihood", config.model.likelihood == Likelihood::kProduct ? "product" : "sum"},
           {"interpolation", config.model.interpolation == Interpolation::kNearest ? "nearest" : "trilinear"},
-          {"map_reads", backend != "vulkan" ? nlohmann::json(nullptr) : nlohmann::json(config.map_texel_views ? "texel" : "storage")},
+          {"map_reads", !evaluator || evaluator->map_reads().empty() ? nlohmann::json(nullptr) : nlohmann::json(evaluator->map_reads())},
           {"map", config.map_name},
           {"scan", config.scan_name},
       };

@@ -73,6 +73,9 @@ class SensorEvaluator {
   virtual ~SensorEvaluator() = default;
   virtual std::string backend() const = 0;      // "vulkan" or "cpu"
   virtual std::string device_name() const = 0;
+  // How the map is read: "texel" or "storage" (Vulkan; texel views fall back to storage reads where the map
+  // exceeds the device's texel-buffer limit), "" where the question does not apply (CPU).
+  virtual std::string map_reads() const { return ""; }
 
   // Grows buffers if needed (never shrinks); invalidates previously returned ParticleArrays when it grows.
   virtual void reserve(std::size_t particles, std::size_t points) = 0;

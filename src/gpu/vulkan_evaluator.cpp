@@ -58,6 +58,7 @@ class VulkanEvaluator final : public SensorEvaluator {
 
   std::string backend() const override { return "vulkan"; }
   std::string device_name() const override { return ctx_->caps().name; }
+  std::string map_reads() const override { return map_texel_views_ ? "texel" : "storage"; }
   void reserve(std::size_t particles, std::size_t points) override;
   ParticleArrays particles() override { return view(active_); }
   ParticleArrays spare_particles() override { return view(1 - active_); }
