@@ -9,6 +9,7 @@
 
 #include "reference_cpu_baseline.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/make_evaluator.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::bench {
@@ -34,7 +35,8 @@ void place_particles(const ParticleArrays& p, std::size_t n, const TsdfMap& map,
     if (spread == "local") {
       // 0.5 m and 10 degrees: the spread of a filter that is tracking but not yet converged.
       const Eigen::Vector3f dp(0.5f * g(rng), 0.5f * g(rng), 0.1f * g(rng));
-      const Eigen::Vector3f axis_angle = Eigen::Vector3f(g(rng), g(rng), g(rng)) * (10.0f * 3.14159265f / 180.0f / 1.7320508f);
+      const Eigen::Vector3f axis_angle =
+          Eigen::Vector3f(g(rng), g(rng), g(rng)) * (10.0f * 3.14159265f / 180.0f / 1.7320508f);
       const Eigen::Quaternionf dq(Eigen::AngleAxisf(axis_angle.norm(), axis_angle.normalized()));
       p.set(i, t + dp, (q * dq).normalized());
     } else {
@@ -116,7 +118,8 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"repetitions", config.repetitions},
           {"likelihood", config.model.likelihood == Likelihood::kProduct ? "product" : "sum"},
           {"interpolation", config.model.interpolation == Interpolation::kNearest ? "nearest" : "trilinear"},
-          {"map_reads", !evaluator || evaluator->map_reads().empty() ? nlohmann::json(nullptr) : nlohmann::json(evaluator->map_reads())},
+          {"map_reads", !evaluator || evaluator->map_reads().empty() ? nlohmann::json(nullptr)
+                                                                     : nlohmann::json(evaluator->map_reads())},
           {"map", config.map_name},
           {"scan", config.scan_name},
       };

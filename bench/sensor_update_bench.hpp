@@ -14,7 +14,7 @@ namespace tsdf_mcl::bench {
 struct BenchConfig {
   std::vector<std::size_t> particle_counts{1000, 10000, 50000, 100000};
   std::size_t points = 1024;
-  std::string spread = "local";          // local: around the scan's true pose; global: uniform over the map box
+  std::string spread = "local";  // local: around the scan's true pose; global: uniform over the map box
   std::vector<std::string> backends{"cpu", "vulkan"};  // also "reference": the baseline of the reference's CPU design
   std::size_t repetitions = 7;
   std::size_t warmup = 2;

@@ -24,24 +24,24 @@ inline std::vector<Box> office_boxes() {
     return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
   };
   return {
-      box(-0.2f, -0.2f, -0.2f, 14.2f, 9.2f, 0.0f),   // floor
-      box(-0.2f, -0.2f, 2.6f, 14.2f, 9.2f, 2.8f),    // ceiling
-      box(-0.2f, -0.2f, 0.0f, 0.0f, 9.2f, 2.6f),     // west wall
-      box(14.0f, -0.2f, 0.0f, 14.2f, 9.2f, 2.6f),    // east wall
-      box(-0.2f, -0.2f, 0.0f, 14.2f, 0.0f, 2.6f),    // south wall
-      box(-0.2f, 9.0f, 0.0f, 14.2f, 9.2f, 2.6f),     // north wall
-      box(6.0f, 0.0f, 0.0f, 6.2f, 3.0f, 2.6f),       // wall between west and south-east room, door y 3..4.2
+      box(-0.2f, -0.2f, -0.2f, 14.2f, 9.2f, 0.0f),  // floor
+      box(-0.2f, -0.2f, 2.6f, 14.2f, 9.2f, 2.8f),   // ceiling
+      box(-0.2f, -0.2f, 0.0f, 0.0f, 9.2f, 2.6f),    // west wall
+      box(14.0f, -0.2f, 0.0f, 14.2f, 9.2f, 2.6f),   // east wall
+      box(-0.2f, -0.2f, 0.0f, 14.2f, 0.0f, 2.6f),   // south wall
+      box(-0.2f, 9.0f, 0.0f, 14.2f, 9.2f, 2.6f),    // north wall
+      box(6.0f, 0.0f, 0.0f, 6.2f, 3.0f, 2.6f),      // wall between west and south-east room, door y 3..4.2
       box(6.0f, 4.2f, 0.0f, 6.2f, 9.0f, 2.6f),
-      box(6.2f, 5.5f, 0.0f, 9.0f, 5.7f, 2.6f),       // wall between the east rooms, door x 9..10.2
+      box(6.2f, 5.5f, 0.0f, 9.0f, 5.7f, 2.6f),  // wall between the east rooms, door x 9..10.2
       box(10.2f, 5.5f, 0.0f, 14.0f, 5.7f, 2.6f),
-      box(2.0f, 6.5f, 0.0f, 2.4f, 6.9f, 2.6f),       // pillar
-      box(3.5f, 2.0f, 0.0f, 3.9f, 2.4f, 2.6f),       // pillar
-      box(0.0f, 0.0f, 0.0f, 0.6f, 2.2f, 1.9f),       // cabinet in the south-west corner
-      box(10.5f, 1.0f, 0.7f, 12.5f, 2.0f, 0.8f),     // table top
-      box(10.5f, 1.0f, 0.0f, 10.6f, 2.0f, 0.7f),     // table legs (as panels)
+      box(2.0f, 6.5f, 0.0f, 2.4f, 6.9f, 2.6f),    // pillar
+      box(3.5f, 2.0f, 0.0f, 3.9f, 2.4f, 2.6f),    // pillar
+      box(0.0f, 0.0f, 0.0f, 0.6f, 2.2f, 1.9f),    // cabinet in the south-west corner
+      box(10.5f, 1.0f, 0.7f, 12.5f, 2.0f, 0.8f),  // table top
+      box(10.5f, 1.0f, 0.0f, 10.6f, 2.0f, 0.7f),  // table legs (as panels)
       box(12.4f, 1.0f, 0.0f, 12.5f, 2.0f, 0.7f),
-      box(7.0f, 7.8f, 0.0f, 8.5f, 9.0f, 1.2f),       // sideboard
-      box(13.0f, 6.5f, 0.0f, 14.0f, 7.0f, 2.0f),     // shelf
+      box(7.0f, 7.8f, 0.0f, 8.5f, 9.0f, 1.2f),    // sideboard
+      box(13.0f, 6.5f, 0.0f, 14.0f, 7.0f, 2.0f),  // shelf
   };
 }
 
@@ -58,18 +58,19 @@ inline float scene_distance(const std::vector<Box>& boxes, const Eigen::Vector3f
   return d;
 }
 
-// Known: within the building's hull and no deeper than the truncation band inside a solid. Far free space
-// ends up in free blocks after compaction, as in maps built from scans.
-inline TsdfMap make_office_map(float voxel = 0.1f, float truncation = 0.3f) {
-  const std::vector<Box> boxes = office_boxes();
-  TsdfMap map = TsdfMap::covering(voxel, truncation, Eigen::Vector3f(-0.6f, -0.6f, -0.6f), Eigen::Vector3f(14.6f, 9.6f, 3.2f));
+// Known: within the building's hull [hull_lo, hull_hi] and no deeper than the truncation band inside a solid.
+// Far free space ends up in free blocks after compaction, as in maps built from scans.
+inline TsdfMap make_box_map(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
+                            const Eigen::Vector3f& hull_hi, float voxel = 0.1f, float truncation = 0.3f) {
+  const Eigen::Vector3f margin = Eigen::Vector3f::Constant(0.4f);
+  TsdfMap map = TsdfMap::covering(voxel, truncation, hull_lo - margin, hull_hi + margin);
   const Eigen::Vector3i lo = map.min_block() * TsdfMap::kBlockSize;
   const Eigen::Vector3i hi = (map.min_block() + map.dims_blocks()) * TsdfMap::kBlockSize;
   for (int z = lo.z(); z < hi.z(); ++z)
     for (int y = lo.y(); y < hi.y(); ++y)
       for (int x = lo.x(); x < hi.x(); ++x) {
         const Eigen::Vector3f c = map.center_of({x, y, z});
-        if ((c.array() < Eigen::Array3f(-0.2f, -0.2f, -0.2f)).any() || (c.array() > Eigen::Array3f(14.2f, 9.2f, 2.8f)).any()) continue;
+        if ((c.array() < hull_lo.array()).any() || (c.array() > hull_hi.array()).any()) continue;
         const float d = scene_distance(boxes, c);
         if (d < -truncation) continue;
         map.set_distance({x, y, z}, d);
@@ -78,8 +79,14 @@ inline TsdfMap make_office_map(float voxel = 0.1f, float truncation = 0.3f) {
   return map;
 }
 
+inline TsdfMap make_office_map(float voxel = 0.1f, float truncation = 0.3f) {
+  return make_box_map(office_boxes(), Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(14.2f, 9.2f, 2.8f), voxel,
+                      truncation);
+}
+
 // Distance along the ray to the first box surface (origin outside every box), or -1.
-inline float cast_ray(const std::vector<Box>& boxes, const Eigen::Vector3f& o, const Eigen::Vector3f& dir, float max_range) {
+inline float cast_ray(const std::vector<Box>& boxes, const Eigen::Vector3f& o, const Eigen::Vector3f& dir,
+                      float max_range) {
   float best = max_range;
   bool hit = false;
   for (const Box& b : boxes) {
@@ -105,15 +112,17 @@ inline float cast_ray(const std::vector<Box>& boxes, const Eigen::Vector3f& o, c
   return hit ? best : -1.0f;
 }
 
-// A spinning LiDAR: `rings` beams from -15° to +15° elevation, `columns` azimuth steps; points in the
-// sensor frame, with Gaussian range noise.
+// A spinning LiDAR: `rings` beams from -max_elevation to +max_elevation (degrees; 15 like a VLP-16, 45 like an
+// OS0), `columns` azimuth steps; points in the sensor frame, with Gaussian range noise.
 inline std::vector<Eigen::Vector3f> simulate_scan(const std::vector<Box>& boxes, const Pose& world_T_sensor, Rng& rng,
-                                                  int rings = 16, int columns = 180, float range_noise = 0.01f) {
+                                                  int rings = 16, int columns = 180, float range_noise = 0.01f,
+                                                  float max_elevation = 15.0f) {
   std::vector<Eigen::Vector3f> points;
   const Eigen::Matrix3f r = world_T_sensor.linear().cast<float>();
   const Eigen::Vector3f o = world_T_sensor.translation().cast<float>();
   for (int ring = 0; ring < rings; ++ring) {
-    const float elevation = (-15.0f + 30.0f * static_cast<float>(ring) / static_cast<float>(rings - 1)) * 0.017453293f;
+    const float elevation =
+        max_elevation * (-1.0f + 2.0f * static_cast<float>(ring) / static_cast<float>(rings - 1)) * 0.017453293f;
     for (int col = 0; col < columns; ++col) {
       const float azimuth = 6.2831853f * static_cast<float>(col) / static_cast<float>(columns);
       const Eigen::Vector3f d_sensor(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
@@ -129,10 +138,9 @@ inline std::vector<Eigen::Vector3f> simulate_scan(const std::vector<Box>& boxes,
 // A loop through all three rooms at walking pace: `steps` poses 0.4 m apart (following the waypoints), yaw
 // along the path, height and tilt wobbling a little (a 6-DoF path, not a planar one).
 inline std::vector<Pose> office_trajectory(std::size_t steps) {
-  const std::vector<Eigen::Vector2d> waypoints = {{2.0, 1.2}, {4.8, 1.0}, {5.2, 3.6}, {8.0, 3.6}, {12.8, 3.5},
-                                                  {12.8, 4.5}, {9.6, 4.6}, {9.6, 7.5}, {12.5, 8.0}, {9.6, 7.0},
-                                                  {9.6, 4.6}, {5.0, 3.6}, {3.0, 5.0}, {3.2, 8.0}, {1.0, 8.0},
-                                                  {1.0, 3.5}, {2.0, 1.2}};
+  const std::vector<Eigen::Vector2d> waypoints = {
+      {2.0, 1.2}, {4.8, 1.0}, {5.2, 3.6}, {8.0, 3.6}, {12.8, 3.5}, {12.8, 4.5}, {9.6, 4.6}, {9.6, 7.5}, {12.5, 8.0},
+      {9.6, 7.0}, {9.6, 4.6}, {5.0, 3.6}, {3.0, 5.0}, {3.2, 8.0},  {1.0, 8.0},  {1.0, 3.5}, {2.0, 1.2}};
   std::vector<Pose> poses;
   std::size_t seg = 0;
   double s = 0.0;
@@ -171,7 +179,8 @@ inline std::vector<Pose> drifting_odometry(const std::vector<Pose>& truth, std::
     const double st = 0.03 * d + 0.01;
     const double sr = 0.03 * a + 0.005;
     noisy.translation() += Eigen::Vector3d(st * rng.normal(), st * rng.normal(), 0.3 * st * rng.normal());
-    noisy.linear() = noisy.linear() * Eigen::AngleAxisd(sr * rng.normal(), Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+    noisy.linear() = noisy.linear() *
+                     Eigen::AngleAxisd(sr * rng.normal(), Eigen::Vector3d::UnitZ()).toRotationMatrix() *
                      Eigen::AngleAxisd(0.3 * sr * rng.normal(), Eigen::Vector3d::UnitX()).toRotationMatrix();
     odom.push_back(orthonormalized(odom.back() * noisy));
   }

@@ -51,6 +51,21 @@ inline std::string read_bytes(const std::filesystem::path& file) {
 
 inline std::filesystem::path shared_data() { return TSDF_MCL_SHARED_DATA; }
 
+// Bit-by-bit CRC-32 (IEEE), independent of the table-driven one in the library: tests re-seal edited map files.
+inline std::uint32_t crc32_bitwise(const std::string& bytes) {
+  std::uint32_t c = 0xFFFFFFFFu;
+  for (unsigned char b : bytes) {
+    c ^= b;
+    for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+  }
+  return ~c;
+}
+
+inline void put_u32(std::string& bytes, std::size_t offset, std::uint32_t value) {
+  for (int k = 0; k < 4; ++k)
+    bytes[offset + static_cast<std::size_t>(k)] = static_cast<char>((value >> (8 * k)) & 0xFFu);
+}
+
 // Binary STL of a mesh (normals left zero, as many exporters do).
 inline void write_binary_stl(const TriangleMesh& mesh, const std::filesystem::path& file) {
   std::string out(80, ' ');
@@ -82,13 +97,12 @@ inline TriangleMesh box_mesh(const Eigen::Vector3f& lo, const Eigen::Vector3f& h
 // Icosphere: an icosahedron subdivided `levels` times, vertices projected onto the sphere; outward normals.
 inline TriangleMesh icosphere(const Eigen::Vector3f& center, float radius, int levels) {
   const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  std::vector<Eigen::Vector3f> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Eigen::Vector3f> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (auto& p : v) p.normalize();
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  std::vector<Eigen::Vector3i> f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                                    {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (int level = 0; level < levels; ++level) {
     std::map<std::pair<int, int>, int> midpoint;
     auto mid = [&](int a, int b) {

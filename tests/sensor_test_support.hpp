@@ -11,7 +11,8 @@ namespace tsdf_mcl::test {
 // A 6 x 4 x 3 m box room (inside positive) with a pillar, exact signed distances in the truncation band and
 // free blocks in the middle; some blocks left unknown so lookups hit all three kinds of coarse entries.
 inline TsdfMap make_room_map(float voxel = 0.1f, float truncation = 0.3f) {
-  TsdfMap map = TsdfMap::covering(voxel, truncation, Eigen::Vector3f(-3.5f, -2.5f, -0.5f), Eigen::Vector3f(3.5f, 2.5f, 3.5f));
+  TsdfMap map =
+      TsdfMap::covering(voxel, truncation, Eigen::Vector3f(-3.5f, -2.5f, -0.5f), Eigen::Vector3f(3.5f, 2.5f, 3.5f));
   auto sdf = [](const Eigen::Vector3f& p) {
     const float room = std::min({p.x() + 3.0f, 3.0f - p.x(), p.y() + 2.0f, 2.0f - p.y(), p.z(), 3.0f - p.z()});
     const Eigen::Vector2f c(1.0f, 0.5f);
@@ -25,7 +26,7 @@ inline TsdfMap make_room_map(float voxel = 0.1f, float truncation = 0.3f) {
       for (int x = lo.x(); x < hi.x(); ++x) {
         const Eigen::Vector3i v(x, y, z);
         const float d = sdf(map.center_of(v));
-        if (d < -truncation) continue;  // deep inside walls: unknown
+        if (d < -truncation) continue;                   // deep inside walls: unknown
         if (x < lo.x() + 4 && y < lo.y() + 4) continue;  // a corner never observed
         map.set_distance(v, d);
       }

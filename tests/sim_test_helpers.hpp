@@ -1,15 +1,22 @@
 #pragma once
-// Helpers of the simulator tests: exact point-to-mesh distances, running the CLI.
+// Helpers of the simulator tests: exact point-to-mesh distances, closed scenes, running the CLI.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "map_test_helpers.hpp"
+#include "sim/random.hpp"
+#include "sim/traversability.hpp"
+#include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/mesh.hpp"
+#include "tsdf_mcl/simulator.hpp"
 
 namespace tsdf_mcl::test {
 
@@ -44,6 +51,68 @@ inline double distance_to_mesh(const TriangleMesh& mesh, const Eigen::Vector3d& 
     best = std::min(best, (closest_on_triangle(p, a, b, c) - p).norm());
   }
   return best;
+}
+
+// A scene with its ray caster and the default robot's traversable floor.
+struct SceneOnGrid {
+  explicit SceneOnGrid(TriangleMesh m) : mesh(std::move(m)), scene(mesh), grid(scene, mesh, robot) {}
+  TriangleMesh mesh;
+  sim::RayCaster scene;
+  sim::RobotModel robot;
+  sim::TraversabilityGrid grid;
+};
+
+// The office of scene seed 1 on its grid, built once for all tests.
+inline const SceneOnGrid& office_on_grid() {
+  static const SceneOnGrid office(sim::office_scene(1));
+  return office;
+}
+
+// Odometry against the truth, scan to scan: the summed translation errors and the distance travelled.
+struct StepErrors {
+  double error = 0.0, length = 0.0;
+};
+inline StepErrors odometry_step_errors(const Dataset& ds) {
+  StepErrors e;
+  for (std::size_t i = 1; i < ds.size(); ++i) {
+    const Pose truth = ds.pose(i - 1).inverse() * ds.pose(i);
+    const Pose odom = ds.odometry(i - 1).inverse() * ds.odometry(i);
+    e.error += (truth.translation() - odom.translation()).norm();
+    e.length += truth.translation().norm();
+  }
+  return e;
+}
+
+inline Eigen::Vector3f random_direction(sim::Rng& rng) {
+  const double z = rng.uniform(-1.0, 1.0), a = rng.uniform(0.0, 2.0 * M_PI), r = std::sqrt(1.0 - z * z);
+  return Eigen::Vector3d(r * std::cos(a), r * std::sin(a), z).cast<float>();
+}
+
+// From random places a robot can be (the grid's free cells, up to `height` above the floor), no ray leaves
+// the building's box, and every surface seen from free space is a front face (normals point into the free
+// space, out of the solids).
+inline void expect_closed_with_outward_normals(const TriangleMesh& mesh, const Eigen::AlignedBox3f& building,
+                                               float height = 0.95f) {
+  const sim::RayCaster scene(mesh);
+  const sim::TraversabilityGrid grid(scene, mesh, sim::RobotModel{});
+  sim::Rng rng(9);
+  const auto& cells = grid.free_cells();
+  for (int position = 0; position < 300; ++position) {
+    const int cell = cells[rng.below(cells.size())];
+    const Eigen::Vector2d c = grid.center(cell);
+    const Eigen::Vector3f origin(static_cast<float>(c.x()), static_cast<float>(c.y()),
+                                 grid.floor(cell) + static_cast<float>(rng.uniform(0.1, height)));
+    for (int k = 0; k < 200; ++k) {
+      const Eigen::Vector3f d = random_direction(rng);
+      const sim::RayCaster::Hit hit = scene.cast(origin, d, 1000.0f);
+      ASSERT_TRUE(hit.hit()) << "ray escapes from " << origin.transpose() << " along " << d.transpose();
+      ASSERT_TRUE(building.contains(origin + hit.distance * d)) << (origin + hit.distance * d).transpose();
+      const Eigen::Vector3i& t = mesh.triangles[static_cast<std::size_t>(hit.triangle)];
+      const Eigen::Vector3f& a = mesh.vertices[t[0]];
+      const Eigen::Vector3f n = (mesh.vertices[t[1]] - a).cross(mesh.vertices[t[2]] - a);
+      ASSERT_LT(n.dot(d), 0.0f) << "back face seen from " << origin.transpose() << " along " << d.transpose();
+    }
+  }
 }
 
 struct CliRun {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -22,7 +23,6 @@ using test::run_cli;
 
 using test::TempDir;
 
-
 std::string last_line(const std::string& text) {
   std::string s = text;
   while (!s.empty() && s.back() == '\n') s.pop_back();
@@ -30,12 +30,12 @@ std::string last_line(const std::string& text) {
   return nl == std::string::npos ? s : s.substr(nl + 1);
 }
 
-
 // Errors found while scans are processed come after the progress lines: the last line names them.
 void expect_error_last(const TempDir& dir, const std::string& args, const std::string& words) {
   const CliResult r = run_cli(dir, args);
   EXPECT_NE(r.exit_code, 0) << args;
-  EXPECT_NE(last_line(r.err).find(words), std::string::npos) << args << ": '" << last_line(r.err) << "' lacks '" << words << "'";
+  EXPECT_NE(last_line(r.err).find(words), std::string::npos)
+      << args << ": '" << last_line(r.err) << "' lacks '" << words << "'";
   EXPECT_NE(last_line(r.err).find("error"), std::string::npos) << r.err;
 }
 
@@ -77,6 +77,59 @@ const std::string kGroundRobot =
     " --backend cpu --particles 20000 --max_particles 20000 --min_particles 300 --init_max_tilt 0.1"
     " --init_height_band 0.6,1.2 --max_beams 256 --update_min_d 0 --update_min_a 0";
 
+// A platform with an IMU: imu.txt beside the scans (100 Hz, the specific force at rest plus noise, sensor frame)
+// gives the up direction, so the global search has one candidate instead of the scan's several. No other prior.
+TEST(CliLocalize, ImuGravityGuidesThePriorFreeGlobalSearch) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string data = (out / "office").string();
+  std::filesystem::copy(f.dataset, data, std::filesystem::copy_options::recursive);
+  const std::vector<Pose> truth = test::office_trajectory(24);
+  std::ofstream imu(out / "office/imu.txt");
+  imu << "# t ax ay az wx wy wz\n";
+  Rng rng(8);
+  for (std::size_t i = 0; i < 24; ++i) {
+    for (int k = -5; k < 5; ++k) {
+      const Eigen::Vector3d a = truth[i].linear().transpose() * Eigen::Vector3d(0, 0, 9.81) +
+                                Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()) * 0.05;
+      char line[160];
+      std::snprintf(line, sizeof(line), "%.6f %.5f %.5f %.5f 0 0 0\n", kT0 + 0.5 * static_cast<double>(i) + 0.01 * k,
+                    a.x(), a.y(), a.z());
+      imu << line;
+    }
+  }
+  imu.close();
+  const std::string o = (out / "run").string();
+  const std::string args =
+      "localize --map " + f.map + " --dataset " + data +
+      " --backend cpu --particles 20000 --max_particles 20000 --init_candidates 200000 --max_beams 256"
+      " --update_min_d 0 --update_min_a 0 -o " +
+      o;
+  const CliResult r = run_cli(out, args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("from the first scan and the IMU"), std::string::npos) << r.err;
+  const auto report = nlohmann::json::parse(test::read_bytes(out / "run/report.json"));
+  const auto& gravity = report["initialization"]["gravity"];
+  EXPECT_EQ(gravity["source"], "imu");
+  ASSERT_EQ(gravity["candidates"].size(), 1u);
+  const Eigen::Vector3d up = truth[0].linear().transpose() * Eigen::Vector3d::UnitZ();
+  const auto& c = gravity["candidates"][0]["up"];
+  EXPECT_GT(up.dot(Eigen::Vector3d(c[0].get<double>(), c[1].get<double>(), c[2].get<double>())), std::cos(0.02));
+  EXPECT_TRUE(report["summary"]["final_converged"].get<bool>());
+  const CliResult e = run_cli(out, "evaluate --estimate " + o + "/trajectory.tum --dataset " + data);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const auto m = nlohmann::json::parse(e.out);
+  EXPECT_TRUE(m["converged"].get<bool>()) << e.out;
+  EXPECT_EQ(m["false_convergence"]["false_claims"].get<int>(), 0) << e.out;
+
+  // A broken imu.txt is an error naming the line; --ignore_imu reads no IMU.
+  std::ofstream(out / "office/imu.txt") << "0.0 0 0 9.81\n0.1 0 nine 9.81\n";
+  test::expect_one_line_error(out, args, "imu.txt:2");
+  const CliResult ignored = run_cli(out, args + " --ignore_imu --count 2");
+  ASSERT_EQ(ignored.exit_code, 0) << ignored.err;
+  EXPECT_EQ(ignored.err.find("and the IMU"), std::string::npos) << ignored.err;
+}
+
 TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   const Fixture& f = fixture();
   TempDir out;
@@ -108,7 +161,8 @@ TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   EXPECT_TRUE(report["summary"]["final_converged"].get<bool>());
   EXPECT_LE(report["summary"]["particles"]["final"].get<int>(), 2000);
 
-  const CliResult e = run_cli(out, "evaluate --estimate " + o + "/trajectory.tum --dataset " + f.dataset + " --plot " + o + "/errors.png");
+  const CliResult e = run_cli(
+      out, "evaluate --estimate " + o + "/trajectory.tum --dataset " + f.dataset + " --plot " + o + "/errors.png");
   ASSERT_EQ(e.exit_code, 0) << e.err;
   const auto metrics = nlohmann::json::parse(e.out);
   EXPECT_TRUE(metrics["converged"].get<bool>());
@@ -125,7 +179,8 @@ TEST(CliLocalize, ConfigFileAndFlagPrecedence) {
   test::write_bytes(out / "params.yaml",
                     "max_beams: 128\nresample_method: residual\ninit: initial_pose\n"
                     "initial_pose:\n  x: 2.0\n  y: 1.2\n  z: 0.9\n");
-  const std::string common = "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --count 3 --particles 500";
+  const std::string common =
+      "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --count 3 --particles 500";
   CliResult r = run_cli(out, common + " --config " + (out / "params.yaml").string() + " -o " + (out / "a").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto report = nlohmann::json::parse(test::read_bytes(out / "a/report.json"));
@@ -135,7 +190,8 @@ TEST(CliLocalize, ConfigFileAndFlagPrecedence) {
   EXPECT_EQ(report["parameters"]["initial_pose.x"], 2.0);
 
   test::write_bytes(out / "params.json", R"({"max_beams": 128, "pf_z": 2.33})");
-  r = run_cli(out, common + " --config " + (out / "params.json").string() + " --max_beams 64 -o " + (out / "b").string());
+  r = run_cli(out,
+              common + " --config " + (out / "params.json").string() + " --max_beams 64 -o " + (out / "b").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   report = nlohmann::json::parse(test::read_bytes(out / "b/report.json"));
   EXPECT_EQ(report["parameters"]["max_beams"], 64);
@@ -153,8 +209,8 @@ TEST(CliLocalize, HelpListsEveryOptionWithItsDefault) {
   TempDir out;
   const CliResult r = run_cli(out, "localize --help");
   ASSERT_EQ(r.exit_code, 0);
-  for (const char* s : {"--max_beams N", "[default: 512]", "--pf_z Z", "standard-normal quantile", "--recovery_alpha_slow",
-                        "--alpha8", "--init_height_band", "--config FILE"}) {
+  for (const char* s : {"--max_beams N", "[default: 512]", "--pf_z Z", "standard-normal quantile",
+                        "--recovery_alpha_slow", "--alpha8", "--init_height_band", "--config FILE"}) {
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
   }
 }
@@ -171,7 +227,9 @@ TEST(CliLocalize, BadInputGivesOneClearError) {
   std::filesystem::remove(no_odom / "odom.txt");
   expect_one_line_error(out, base + " --dataset " + no_odom.string() + o, "has no odom.txt");
   // ... which the constant-velocity model does not need.
-  EXPECT_EQ(run_cli(out, base + " --dataset " + no_odom.string() + " --count 2 --motion_model constant_velocity" + o).exit_code, 0);
+  EXPECT_EQ(run_cli(out, base + " --dataset " + no_odom.string() + " --count 2 --motion_model constant_velocity" + o)
+                .exit_code,
+            0);
 
   // times.txt and poses.txt disagree.
   const std::filesystem::path mismatched = out / "mismatched";
@@ -218,6 +276,59 @@ TEST(CliLocalize, BadInputGivesOneClearError) {
   expect_one_line_error(out, base + " --dataset " + f.dataset, "missing -o");
 }
 
+// Hostile input (issue #10): counts that reached reserve() or the OpenMP runtime, configuration files that
+// expand without bound or are not files, and a failed run into a folder holding a previous run's results.
+TEST(CliLocalize, HostileCountsConfigsAndOutputFolders) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const std::string base = "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --particles 200";
+  const std::string o = " -o " + (out / "run").string();
+  expect_one_line_error(out, base + " --cpu_threads 100000" + o, "--cpu_threads 100000 is more than the limit of 256");
+  expect_one_line_error(out, base + " --particles 4294967296" + o, "--particles 4294967296 is more than the limit");
+  expect_one_line_error(out, base + " --max_particles 4294967295" + o, "--max_particles 4294967295 is more than");
+  expect_one_line_error(out, base + " --max_beams 4294967296" + o, "--max_beams 4294967296 is more than");
+
+  // A 1.4 KB alias bomb expanded to gigabytes; a folder given as --config was an "internal error".
+  std::string bomb = "a: &a {k0: 1, k1: 1, k2: 1, k3: 1, k4: 1, k5: 1, k6: 1, k7: 1, k8: 1}\n";
+  for (char c = 'b'; c <= 'j'; ++c) {
+    bomb += std::string(1, c) + ": &" + c + " {";
+    for (int k = 0; k < 9; ++k)
+      bomb += std::string(k ? ", k" : "k") + std::to_string(k) + ": *" + static_cast<char>(c - 1);
+    bomb += "}\n";
+  }
+  test::write_bytes(out / "bomb.yaml", bomb);
+  expect_one_line_error(out, base + " --config " + (out / "bomb.yaml").string() + o, "YAML aliases expand");
+  expect_one_line_error(out, base + " --config " + out.path().string() + o, "is a directory");
+
+  // A failed run leaves the previous results untouched: no new snapshots beside an old report.
+  const std::string good = base + " --count 3 --motion_model constant_velocity";
+  ASSERT_EQ(run_cli(out, good + o).exit_code, 0);
+  const std::string report = test::read_bytes(out / "run/report.json");
+  const std::filesystem::path broken = out / "broken";
+  std::filesystem::copy(f.dataset, broken, std::filesystem::copy_options::recursive);
+  PointCloud nan_scan;
+  nan_scan.points = {{std::nanf(""), 0, 0}};
+  write_kitti_bin(broken / "scans/000002.bin", nan_scan);
+  const CliResult failed = run_cli(out, "localize --map " + f.map + " --dataset " + broken.string() +
+                                            " --backend cpu --particles 200 --count 3 --motion_model constant_velocity"
+                                            " --snapshot_every 1" +
+                                            o);
+  EXPECT_NE(failed.exit_code, 0);
+  EXPECT_EQ(test::read_bytes(out / "run/report.json"), report);
+  EXPECT_FALSE(std::filesystem::exists(out / "run/snapshots"));
+  // A successful run replaces every result of the previous one.
+  ASSERT_EQ(run_cli(out, good + " --snapshot_every 1" + o).exit_code, 0);
+  EXPECT_TRUE(std::filesystem::exists(out / "run/snapshots/scan_000002.bin"));
+  ASSERT_EQ(run_cli(out, good + o).exit_code, 0);
+  EXPECT_FALSE(std::filesystem::exists(out / "run/snapshots"));
+  for (const auto& entry : std::filesystem::directory_iterator(out.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("partial"), std::string::npos) << entry.path();
+  }
+  // The output folder is checked before the map is loaded.
+  test::write_bytes(out / "file", "x");
+  expect_one_line_error(out, good + " -o " + (out / "file").string(), "is a file, not a folder");
+}
+
 TEST(CliEvaluate, BadInputGivesOneClearError) {
   const Fixture& f = fixture();
   TempDir out;
@@ -234,14 +345,14 @@ TEST(CliEvaluate, BadInputGivesOneClearError) {
                         "has no poses.txt");
 }
 
-// bench: one JSON line per backend and particle count, with the fields DESIGN.md names.
+// bench: one JSON line per backend and particle count, with the fields docs/architecture.md names.
 TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
   const Fixture& f = fixture();
   TempDir out;
   const std::string base = "bench --map " + f.map + " --dataset " + f.dataset +
                            " --scan 1 --particles 100,300 --points 64 --repetitions 1 --warmup 1";
   for (const std::string map_reads : {"texel", "storage"}) {
-    const CliResult r = run_cli(out, base + " --backend reference,cpu,vulkan --map-reads " + map_reads);
+    const CliResult r = run_cli(out, base + " --backend reference,cpu,vulkan --map_reads " + map_reads);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     std::istringstream lines(r.out);
     std::string line;
@@ -270,14 +381,15 @@ TEST(CliBench, BadInputGivesOneClearError) {
   TempDir out;
   const std::string base = "bench --map " + f.map + " --dataset " + f.dataset + " --particles 10 --points 8";
   expect_one_line_error(out, base + " --backend cuda", "unknown backend 'cuda'");
-  expect_one_line_error(out, base + " --map-reads fast", "--map-reads must be texel or storage");
+  expect_one_line_error(out, base + " --map_reads fast", "--map_reads must be texel or storage");
   expect_one_line_error(out, base + " --likelihood max", "--likelihood must be product or sum");
   expect_one_line_error(out, base + " --interpolation cubic", "--interpolation must be nearest or trilinear");
   expect_one_line_error(out, base + " --spread far", "--spread must be local or global");
   expect_one_line_error(out, base + " --particles 0", "--particles needs positive integers");
   expect_one_line_error(out, base + " --points 0", "--points must be positive");
   expect_one_line_error(out, base + " --scan 999", "--scan 999 but the dataset has 24 scans");
-  expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset, "missing.tsdf");
+  expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset,
+                        "missing.tsdf");
   expect_one_line_error(out, "bench --map " + f.map + " --dataset " + (out / "nowhere").string(), "nowhere");
 }
 

@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
-#include "cpu/cpu_evaluator.hpp"
-#include "cpu/weight_reduction.hpp"
+#include "tsdf_mcl/cpu_evaluator.hpp"
+#include "tsdf_mcl/weight_reduction.hpp"
 #include "sensor_test_support.hpp"
 #include "tsdf_mcl/error.hpp"
 
@@ -21,7 +21,8 @@ TEST_P(CpuEvaluatorVsReference, LogWeightsMatchTheDoubleReference) {
   CpuEvaluator eval(map, 2);
   const std::size_t n = 300;
   eval.reserve(n, 700);
-  test::random_particles(eval.particles(), n, rng, Eigen::Vector3f(-3.2f, -2.2f, 0.2f), Eigen::Vector3f(3.2f, 2.2f, 2.8f));
+  test::random_particles(eval.particles(), n, rng, Eigen::Vector3f(-3.2f, -2.2f, 0.2f),
+                         Eigen::Vector3f(3.2f, 2.2f, 2.8f));
   const auto scan = test::random_scan(700, rng);
   eval.set_points(scan);
   EndpointModel model;
@@ -137,7 +138,8 @@ TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
   simd.reserve(n, 333);
   // Some particles far outside the map so lookups hit every kind of cell: outside, unknown, free, allocated.
   test::random_particles(scalar.particles(), n, rng, Eigen::Vector3f(-6, -5, -2), Eigen::Vector3f(6, 5, 5));
-  for (std::size_t i = 0; i < n; ++i) simd.particles().set(i, scalar.particles().position(i), scalar.particles().rotation(i));
+  for (std::size_t i = 0; i < n; ++i)
+    simd.particles().set(i, scalar.particles().position(i), scalar.particles().rotation(i));
   const auto scan = test::random_scan(333, rng, 8.0f);
   scalar.set_points(scan);
   simd.set_points(scan);
@@ -146,7 +148,8 @@ TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
     model.likelihood = form;
     scalar.evaluate(n, model, Eigen::Quaternionf::Identity());
     simd.evaluate(n, model, Eigen::Quaternionf::Identity());
-    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(simd.particles().log_weight[i], scalar.particles().log_weight[i]) << i;
+    for (std::size_t i = 0; i < n; ++i)
+      ASSERT_EQ(simd.particles().log_weight[i], scalar.particles().log_weight[i]) << i;
   }
 }
 

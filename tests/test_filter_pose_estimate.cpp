@@ -63,7 +63,8 @@ TEST(PoseEstimator, PicksTheDominantModeNotTheMeanOfTheCloud) {
     const bool in_a = i < 600;
     const Eigen::Vector3f n(static_cast<float>(0.05 * rng.normal()), static_cast<float>(0.05 * rng.normal()),
                             static_cast<float>(0.02 * rng.normal()));
-    p.view.set(i, (in_a ? a : b) + n, (in_a ? qa : qb) * quaternion_exp(Eigen::Vector3f(0, 0, static_cast<float>(0.02 * rng.normal()))));
+    p.view.set(i, (in_a ? a : b) + n,
+               (in_a ? qa : qb) * quaternion_exp(Eigen::Vector3f(0, 0, static_cast<float>(0.02 * rng.normal()))));
     w[i] = 1.0;
   }
   PoseEstimator estimator{PoseEstimateOptions{}};
@@ -119,13 +120,16 @@ TEST(PoseEstimator, YawWrapsAroundAndBestParticleOption) {
   std::vector<double> w(200, 1.0);
   for (std::size_t i = 0; i < 200; ++i) {
     const float yaw = 3.14159f + 0.002f * (static_cast<float>(i) - 100.0f);  // straddles +-pi
-    p.view.set(i, Eigen::Vector3f(0.1f, 0.1f, 0.1f), Eigen::Quaternionf(Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ())));
+    p.view.set(i, Eigen::Vector3f(0.1f, 0.1f, 0.1f),
+               Eigen::Quaternionf(Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ())));
   }
   w[37] = 5.0;
   PoseEstimator estimator{PoseEstimateOptions{}};
   const PoseEstimate e = estimator.estimate(p.view, w.data(), 200);
   EXPECT_EQ(e.modes, 1u);
-  EXPECT_LT(angle(Eigen::Quaterniond(e.pose.linear()), Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))), 0.01);
+  EXPECT_LT(
+      angle(Eigen::Quaterniond(e.pose.linear()), Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))),
+      0.01);
 
   PoseEstimateOptions best;
   best.best_particle = true;

@@ -16,11 +16,36 @@ namespace {
 using tsdf_mcl::test::TempDir;
 
 int run(const std::string& args, const TempDir& dir, std::string* out = nullptr) {
-  const std::string command =
-      std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + (dir / "out.txt").string() + "' 2>'" + (dir / "err.txt").string() + "'";
+  const std::string command = std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + (dir / "out.txt").string() +
+                              "' 2>'" + (dir / "err.txt").string() + "'";
   const int status = std::system(command.c_str());
   if (out) *out = tsdf_mcl::test::read_bytes(dir / "out.txt");
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// What a new user tries first: `--init global` and nothing else. No tilt or height prior, no initial guess.
+TEST(RealData, BalmPriorFreeGlobalLocalizationOnTheOddScans) {
+  const std::filesystem::path data = std::filesystem::path(TSDF_MCL_SHARED_DATA) / "balm_realworld";
+  if (!std::filesystem::exists(data / "times.txt")) GTEST_SKIP() << "shared data " << data << " not present";
+  TempDir dir;
+  const std::string map = (dir / "even.tsdf").string();
+  ASSERT_EQ(run("build-map --dataset " + data.string() + " --stride 2 -o " + map, dir), 0)
+      << tsdf_mcl::test::read_bytes(dir / "err.txt");
+  const std::string out = (dir / "run").string();
+  ASSERT_EQ(
+      run("localize --map " + map + " --dataset " + data.string() + " --start 1 --stride 2 --init global -o " + out,
+          dir),
+      0)
+      << tsdf_mcl::test::read_bytes(dir / "err.txt");
+  std::string json;
+  ASSERT_EQ(run("evaluate --estimate " + out + "/trajectory.tum --dataset " + data.string(), dir, &json), 0);
+  const auto m = nlohmann::json::parse(json);
+  ASSERT_TRUE(m["converged"].get<bool>()) << json;
+  EXPECT_LE(m["convergence"]["time_s"].get<double>(), 15.0) << json;
+  EXPECT_LE(m["after_convergence"]["ate_rmse_m"].get<double>(), 0.08) << json;
+  EXPECT_LE(m["after_convergence"]["rotation_rmse_deg"].get<double>(), 1.5) << json;
+  EXPECT_EQ(m["false_convergence"]["false_claims"].get<int>(), 0) << json;
+  EXPECT_GT(m["false_convergence"]["claimed_converged_scans"].get<int>(), 40) << json;
 }
 
 TEST(RealData, BalmGlobalLocalizationOnTheOddScans) {

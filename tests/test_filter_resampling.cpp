@@ -125,7 +125,8 @@ TEST(Resampling, DeterministicForTheSameStream) {
   Rng a(11), b(11);
   Rng wr(5);
   const std::vector<double> w = random_weights(50, wr);
-  for (ResamplingMethod m : {ResamplingMethod::kSystematic, ResamplingMethod::kResidual, ResamplingMethod::kMultinomial}) {
+  for (ResamplingMethod m :
+       {ResamplingMethod::kSystematic, ResamplingMethod::kResidual, ResamplingMethod::kMultinomial}) {
     std::vector<std::uint32_t> x(77), y(77);
     resample(m, w.data(), w.size(), x.size(), a, x.data());
     resample(m, w.data(), w.size(), y.size(), b, y.data());

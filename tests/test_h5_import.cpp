@@ -8,10 +8,10 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
+using Eigen::Vector3i;
 using tsdf_mcl::Error;
 using tsdf_mcl::TsdfMap;
 using tsdf_mcl::test::TempDir;
-using Eigen::Vector3i;
 
 namespace {
 
@@ -70,8 +70,8 @@ TEST(H5Import, ReadsChunksWithNegativeIndicesAndUnknowns) {
   std::vector<std::uint32_t> a(kN * kN * kN, word(0, 0));  // chunk 0_0_0: all unobserved but a few voxels
   a[at(1, 2, 3)] = word(-125, 5);
   a[at(63, 0, 0)] = word(600, 1);
-  a[at(0, 63, 10)] = word(900, 2);  // beyond the truncation: clamped
-  a[at(5, 5, 5)] = word(321, 0);    // weight 0: unobserved whatever the value
+  a[at(0, 63, 10)] = word(900, 2);                           // beyond the truncation: clamped
+  a[at(5, 5, 5)] = word(321, 0);                             // weight 0: unobserved whatever the value
   std::vector<std::uint32_t> b(kN * kN * kN, word(600, 3));  // chunk -1_0_0: all free-space observations
   b[at(63, 0, 0)] = word(-40, 9);                            // voxel (-1, 0, 0)
   std::vector<std::uint32_t> c(kN * kN * kN, word(0, 0));
@@ -124,4 +124,20 @@ TEST(H5Import, BadFilesSayWhatIsWrong) {
   write_h5(dir / "dup.h5", {chunk("1_0_0", zeros), chunk("01_0_0", zeros)});
   expect_import_error(dir / "dup.h5", "two datasets");
   EXPECT_THROW(tsdf_mcl::import_reference_h5(dir / "dup.h5", 0.01f), Error);
+}
+
+// Two chunks far apart: a file of 2 MB whose bounding box in blocks would take hundreds of MB. The import stops at
+// its memory budget before allocating the box.
+TEST(H5Import, FarApartChunksHitTheMemoryBudget) {
+  TempDir dir;
+  const std::vector<std::uint32_t> observed(kN * kN * kN, word(100, 1));
+  write_h5(dir / "far.h5", {chunk("0_0_0", observed), chunk("200_200_0", observed)});
+  try {
+    tsdf_mcl::import_reference_h5(dir / "far.h5", 0.6f, std::uint64_t{64} << 20);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("memory budget of 64 MiB"), std::string::npos) << e.what();
+  }
+  const TsdfMap map = tsdf_mcl::import_reference_h5(dir / "far.h5", 0.6f, std::uint64_t{512} << 20);
+  EXPECT_EQ(map.dims_blocks(), Vector3i(201 * 8, 201 * 8, 8));
 }

@@ -7,13 +7,15 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
+using Eigen::Vector3f;
+using Eigen::Vector3i;
 using tsdf_mcl::Error;
 using tsdf_mcl::TsdfMap;
+using tsdf_mcl::test::crc32_bitwise;
+using tsdf_mcl::test::put_u32;
 using tsdf_mcl::test::read_bytes;
 using tsdf_mcl::test::TempDir;
 using tsdf_mcl::test::write_bytes;
-using Eigen::Vector3f;
-using Eigen::Vector3i;
 
 namespace {
 
@@ -24,20 +26,6 @@ TsdfMap sample_map() {
   map.mark_block_free({1, 1, 1});
   map.set_unknown({0, 0, 2});
   return map;
-}
-
-// Bit-by-bit CRC-32 (IEEE), independent of the table-driven one in the library.
-std::uint32_t crc32_bitwise(const std::string& bytes) {
-  std::uint32_t c = 0xFFFFFFFFu;
-  for (unsigned char b : bytes) {
-    c ^= b;
-    for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-  }
-  return ~c;
-}
-
-void put_u32(std::string& bytes, std::size_t offset, std::uint32_t value) {
-  for (int k = 0; k < 4; ++k) bytes[offset + static_cast<std::size_t>(k)] = static_cast<char>((value >> (8 * k)) & 0xFFu);
 }
 
 void expect_load_error(const std::filesystem::path& file, const std::string& words) {
@@ -120,4 +108,25 @@ TEST(MapFile, SaveFailureThrowsAndKeepsNothingHalfWritten) {
   EXPECT_THROW(tsdf_mcl::save_map(sample_map(), dir / "no_such_dir" / "m.tsdf"), Error);
   EXPECT_THROW(tsdf_mcl::save_map(TsdfMap(), dir / "empty.tsdf"), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "empty.tsdf"));
+}
+
+// A header with a valid checksum but a geometry whose index or scale arithmetic would overflow never loads.
+TEST(MapFile, HeaderOutOfRangeIsRejectedBeforeItsPayload) {
+  TempDir dir;
+  tsdf_mcl::save_map(sample_map(), dir / "good.tsdf");
+  const std::string good = read_bytes(dir / "good.tsdf");
+  auto resealed = [&](std::size_t offset, std::uint32_t value, const std::string& name) {
+    std::string bytes = good;
+    put_u32(bytes, offset, value);
+    put_u32(bytes, bytes.size() - 4, crc32_bitwise(bytes.substr(0, bytes.size() - 4)));
+    write_bytes(dir / name, bytes);
+    return dir / name;
+  };
+  float tiny = 1e-30f;
+  std::uint32_t tiny_bits = 0;
+  std::memcpy(&tiny_bits, &tiny, 4);
+  expect_load_error(resealed(12, tiny_bits, "tiny_voxel.tsdf"), "voxel size");
+  expect_load_error(resealed(24, 0x7FFFFFF0u, "far_x.tsdf"), "beyond the supported +-2^24");
+  expect_load_error(resealed(28, 0x80000001u, "far_y.tsdf"), "beyond the supported +-2^24");
+  expect_load_error(resealed(36, 0u, "no_blocks.tsdf"), "at least one block");
 }

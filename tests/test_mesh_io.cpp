@@ -7,12 +7,12 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/mesh.hpp"
 
+using Eigen::Vector3f;
+using Eigen::Vector3i;
 using tsdf_mcl::Error;
 using tsdf_mcl::TriangleMesh;
 using tsdf_mcl::test::TempDir;
 using tsdf_mcl::test::write_bytes;
-using Eigen::Vector3f;
-using Eigen::Vector3i;
 
 namespace {
 
@@ -44,7 +44,8 @@ std::string binary_stl(const std::vector<std::array<Vector3f, 3>>& triangles, co
   return out;
 }
 
-const std::vector<std::array<Vector3f, 3>> kQuadTriangles = {{kQuad[0], kQuad[1], kQuad[2]}, {kQuad[0], kQuad[2], kQuad[3]}};
+const std::vector<std::array<Vector3f, 3>> kQuadTriangles = {{kQuad[0], kQuad[1], kQuad[2]},
+                                                             {kQuad[0], kQuad[2], kQuad[3]}};
 
 // The quad loaded from any format: 4 distinct vertices, 2 triangles, corners in the right order.
 void expect_quad(const TriangleMesh& m) {
@@ -55,7 +56,8 @@ void expect_quad(const TriangleMesh& m) {
       const int i = m.triangles[static_cast<std::size_t>(t)][k];
       ASSERT_GE(i, 0);
       ASSERT_LT(i, 4);
-      EXPECT_EQ(m.vertices[static_cast<std::size_t>(i)], kQuadTriangles[static_cast<std::size_t>(t)][static_cast<std::size_t>(k)]);
+      EXPECT_EQ(m.vertices[static_cast<std::size_t>(i)],
+                kQuadTriangles[static_cast<std::size_t>(t)][static_cast<std::size_t>(k)]);
     }
   }
 }
@@ -85,7 +87,9 @@ TEST(MeshIo, AsciiStl) {
   std::string text = "solid my quad\n";
   for (const auto& t : kQuadTriangles) {
     text += "  facet normal 0 0 1\n    outer loop\n";
-    for (const auto& v : t) text += "      vertex " + std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z()) + "\n";
+    for (const auto& v : t)
+      text +=
+          "      vertex " + std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z()) + "\n";
     text += "    endloop\n  endfacet\n";
   }
   write_bytes(dir / "quad.STL", text + "endsolid my quad\n");
@@ -95,7 +99,9 @@ TEST(MeshIo, AsciiStl) {
   expect_error(dir / "cut.stl", "truncated");
   write_bytes(dir / "bad.stl", "solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 zero\n");
   expect_error(dir / "bad.stl", "expected a number");
-  write_bytes(dir / "nan.stl", "solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 nan\n vertex 1 0 0\n vertex 0 1 0\n endloop\n endfacet\nendsolid\n");
+  write_bytes(dir / "nan.stl",
+              "solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 nan\n vertex 1 0 0\n vertex 0 1 0\n endloop\n "
+              "endfacet\nendsolid\n");
   expect_error(dir / "nan.stl", "non-finite");
 }
 
@@ -143,7 +149,9 @@ TEST(MeshIo, AsciiPlyWithExtraPropertiesAndPolygons) {
   expect_error(dir / "noheader.ply", "end_header");
   write_bytes(dir / "notply.ply", "solid\n");
   expect_error(dir / "notply.ply", "not a PLY");
-  write_bytes(dir / "points.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n");
+  write_bytes(dir / "points.ply",
+              "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float "
+              "z\nend_header\n0 0 0\n");
   expect_error(dir / "points.ply", "no face element");
 }
 
@@ -159,7 +167,8 @@ TEST(MeshIo, BinaryPlyBothEndians) {
     }
     for (const Vector3i& t : {Vector3i(0, 1, 2), Vector3i(0, 2, 3)}) {
       ply.push_back(3);
-      for (int a = 0; a < 3; ++a) big ? put_be(ply, static_cast<std::uint32_t>(t[a])) : put(ply, static_cast<std::uint32_t>(t[a]));
+      for (int a = 0; a < 3; ++a)
+        big ? put_be(ply, static_cast<std::uint32_t>(t[a])) : put(ply, static_cast<std::uint32_t>(t[a]));
     }
     const auto file = dir / (big ? "be.ply" : "le.ply");
     write_bytes(file, ply);

@@ -8,11 +8,11 @@
 #include "tsdf_mcl/map_builder.hpp"
 #include "tsdf_mcl/mesh.hpp"
 
+using Eigen::Vector3f;
+using Eigen::Vector3i;
 using tsdf_mcl::MeshMapOptions;
 using tsdf_mcl::TriangleMesh;
 using tsdf_mcl::TsdfMap;
-using Eigen::Vector3f;
-using Eigen::Vector3i;
 
 namespace {
 
@@ -78,7 +78,8 @@ TEST(MeshToTsdf, BoxMatchesAnalyticDistances) {
   EXPECT_GT(calls, 0u);
   EXPECT_EQ(last_done, last_total);
   // Distances at voxel centres are exact: only float rounding and the quantization remain.
-  check_against(map, [&](const Vector3f& p) { return box_distance(p, lo, hi); }, 1e-4f + map.quantization_step());
+  check_against(
+      map, [&](const Vector3f& p) { return box_distance(p, lo, hi); }, 1e-4f + map.quantization_step());
 
   const TsdfMap::Stats s = map.stats();
   EXPECT_GT(s.free_blocks, 0u);
@@ -103,7 +104,9 @@ TEST(MeshToTsdf, SphereMatchesAnalyticDistances) {
   float deepest = r;
   for (const Vector3i& t : sphere.triangles) {
     const Vector3f& a = sphere.vertices[static_cast<std::size_t>(t[0])];
-    const Vector3f n = (sphere.vertices[static_cast<std::size_t>(t[1])] - a).cross(sphere.vertices[static_cast<std::size_t>(t[2])] - a).normalized();
+    const Vector3f n = (sphere.vertices[static_cast<std::size_t>(t[1])] - a)
+                           .cross(sphere.vertices[static_cast<std::size_t>(t[2])] - a)
+                           .normalized();
     deepest = std::min(deepest, std::abs(n.dot(a - c)));
   }
   const float sagitta = r - deepest;
@@ -112,7 +115,8 @@ TEST(MeshToTsdf, SphereMatchesAnalyticDistances) {
   options.voxel_size = 0.05f;
   options.truncation = 0.15f;
   const TsdfMap map = tsdf_mcl::build_map_from_mesh(sphere, options);
-  check_against(map, [&](const Vector3f& p) { return (p - c).norm() - r; }, sagitta + 1e-4f + map.quantization_step());
+  check_against(
+      map, [&](const Vector3f& p) { return (p - c).norm() - r; }, sagitta + 1e-4f + map.quantization_step());
   EXPECT_GT(map.stats().free_blocks, 0u);
   EXPECT_FALSE(map.nearest(c).known);
 }
@@ -155,8 +159,8 @@ TEST(MeshToTsdf, AvzBuildingIsFreeInRoomsAndAboveTheWalls) {
   options.truncation = 0.3f;
   const TsdfMap map = tsdf_mcl::build_map_from_mesh(tsdf_mcl::load_mesh(file), options);
   // Rooms and corridors at 1 m height (read off a slice of the map), and the open sky above the roofless floor.
-  const Vector3f free_points[] = {{-4.25f, 6.45f, 1.0f},   {-0.5f, -4.05f, 1.0f}, {-12.0f, -29.0f, 1.0f},
-                                  {5.5f, 0.98f, 1.0f},     {-5.0f, 0.0f, 4.7f},   {8.0f, -30.0f, 4.7f}};
+  const Vector3f free_points[] = {{-4.25f, 6.45f, 1.0f}, {-0.5f, -4.05f, 1.0f}, {-12.0f, -29.0f, 1.0f},
+                                  {5.5f, 0.98f, 1.0f},   {-5.0f, 0.0f, 4.7f},   {8.0f, -30.0f, 4.7f}};
   for (const Vector3f& p : free_points) {
     const auto s = map.nearest(p);
     ASSERT_TRUE(s.known) << p.transpose();

@@ -2,6 +2,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <string>
 
 #include "cli_test_support.hpp"
@@ -20,10 +21,10 @@ using tsdf_mcl::test::run_cli;
 
 namespace {
 
-
 // A 4 x 3 m room: floor at z = 0, solid around it up to 1 m.
 tsdf_mcl::TsdfMap small_room() {
-  tsdf_mcl::TsdfMap map = tsdf_mcl::TsdfMap::covering(0.1f, 0.3f, Vector3f(-0.5f, -0.5f, -0.3f), Vector3f(4.5f, 3.5f, 1.2f));
+  tsdf_mcl::TsdfMap map =
+      tsdf_mcl::TsdfMap::covering(0.1f, 0.3f, Vector3f(-0.5f, -0.5f, -0.3f), Vector3f(4.5f, 3.5f, 1.2f));
   const Eigen::Vector3i lo = map.min_block() * tsdf_mcl::TsdfMap::kBlockSize;
   const Eigen::Vector3i hi = (map.min_block() + map.dims_blocks()) * tsdf_mcl::TsdfMap::kBlockSize;
   for (int z = lo.z(); z < hi.z(); ++z) {
@@ -59,7 +60,8 @@ void write_inputs(const TempDir& dir) {
   tsdf_mcl::write_tum(dir / "run/trajectory.tum", estimate);
   tsdf_mcl::ParticleSnapshot start, end;
   for (int i = 0; i < 200; ++i) {
-    start.particles.push_back({Vector3f(0.2f + 0.018f * i, 0.3f + 0.012f * i, 0.5f), Eigen::Quaternionf::Identity(), 1.0f});
+    start.particles.push_back(
+        {Vector3f(0.2f + 0.018f * i, 0.3f + 0.012f * i, 0.5f), Eigen::Quaternionf::Identity(), 1.0f});
     end.particles.push_back({Vector3f(3.2f, 1.6f, 0.5f), Eigen::Quaternionf::Identity(), 1.0f + static_cast<float>(i)});
   }
   tsdf_mcl::write_particle_snapshot(dir / "start.part", start);
@@ -72,10 +74,10 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   TempDir dir;
   write_inputs(dir);
   const std::string d = "'" + dir.path().string() + "'";
-  const CliResult r = run_cli(dir, "render --map " + d + "/room.tsdf --ground-truth " + d + "/data --estimate " + d +
-                                       "/run/trajectory.tum --particles " + d + "/start.part," + d +
-                                       "/end.part --captions 'start,end' --pixel 0.02 --title 'small room' -o " + d +
-                                       "/out.png");
+  const CliResult r =
+      run_cli(dir, "render --map " + d + "/room.tsdf --ground_truth " + d + "/data --estimate " + d +
+                       "/run/trajectory.tum --particles " + d + "/start.part," + d +
+                       "/end.part --captions 'start,end' --pixel 0.02 --title 'small room' -o " + d + "/out.png");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("out.png"), std::string::npos) << r.out;
   const tsdf_mcl::Image image = tsdf_mcl::load_png(dir / "out.png");
@@ -92,9 +94,12 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   panels[0].caption = "start  -  200 particles";
   panels[1].particles = tsdf_mcl::read_particle_snapshot(dir / "end.part");
   panels[1].caption = "end  -  200 particles";
-  // All particles of "end" are at one place: the command marks their mean.
-  panels[1].markers.push_back({tsdf_mcl::pose_from_xyz_rpy(3.2, 1.6, 0.5, 0, 0, 0), tsdf_mcl::palette_color(0),
-                               "particle mean"});
+  // The command marks the hypotheses of each panel's belief: "end" has one, at its particles' place.
+  panels[0].markers = tsdf_mcl::hypothesis_markers(panels[0].particles);
+  panels[1].markers = tsdf_mcl::hypothesis_markers(panels[1].particles);
+  ASSERT_EQ(panels[1].markers.size(), 1u);
+  EXPECT_LT((panels[1].markers[0].pose.translation() - Eigen::Vector3d(3.2, 1.6, 0.5)).norm(), 1e-5);
+  EXPECT_EQ(panels[1].markers[0].annotation, "100 %");
   tsdf_mcl::MapViewOptions options;
   options.metres_per_pixel = 0.02;
   options.title = "small room";
@@ -112,14 +117,38 @@ TEST(RenderCli, SliceAndDefaultsWork) {
   const std::string d = "'" + dir.path().string() + "'";
   CliResult r = run_cli(dir, "render --map " + d + "/room.tsdf --slice 0.5 -o " + d + "/slice.png");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  r = run_cli(dir, "render --map " + d + "/room.tsdf --z-min 0.2 --z-max 0.9 --particles " + d +
-                       "/end.part --headings --panel-size 300 --output " + d + "/proj.png");
+  r = run_cli(dir, "render --map " + d + "/room.tsdf --z_min 0.2 --z_max 0.9 --particles " + d +
+                       "/end.part --headings --panel_size 300 --output " + d + "/proj.png");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const tsdf_mcl::Image image = tsdf_mcl::load_png(dir / "proj.png");
   EXPECT_GE(image.width(), 300);
   r = run_cli(dir, "render --help");
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("--particles"), std::string::npos);
+}
+
+TEST(RenderCli, DrawsOnAMachineWithoutFonts) {
+  // Fontconfig finds no font at all: Cairo's built-in font stands in, and the picture is the same size.
+  TempDir dir;
+  write_inputs(dir);
+  tsdf_mcl::test::write_bytes(dir / "fonts.conf", "<?xml version=\"1.0\"?>\n<fontconfig><cachedir>" +
+                                                      (dir / "cache").string() + "</cachedir></fontconfig>\n");
+  const std::string d = "'" + dir.path().string() + "'";
+  const std::string args = "render --map " + d + "/room.tsdf --ground_truth " + d + "/data --title 'no fonts' -o " + d;
+  const CliResult with_fonts = run_cli(dir, args + "/fonts.png");
+  ASSERT_EQ(with_fonts.exit_code, 0) << with_fonts.err;
+  const char* before = std::getenv("FONTCONFIG_FILE");
+  const std::string saved = before ? before : "";
+  ::setenv("FONTCONFIG_FILE", (dir / "fonts.conf").c_str(), 1);  // for the program started next only
+  const CliResult without = run_cli(dir, args + "/no_fonts.png");
+  if (before)
+    ::setenv("FONTCONFIG_FILE", saved.c_str(), 1);
+  else
+    ::unsetenv("FONTCONFIG_FILE");
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  const tsdf_mcl::Image a = tsdf_mcl::load_png(dir / "fonts.png"), b = tsdf_mcl::load_png(dir / "no_fonts.png");
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_NE(a.pixels(), b.pixels());  // in another font
 }
 
 TEST(RenderCli, BadInputExitsNonZeroWithOneLine) {
@@ -135,9 +164,9 @@ TEST(RenderCli, BadInputExitsNonZeroWithOneLine) {
   expect_one_line_error(dir, "render --map " + d + "/junk.tsdf" + out, "not a tsdf-mcl map");
   expect_one_line_error(dir, "render" + map + " --pixel abc" + out, "--pixel expects a number");
   expect_one_line_error(dir, "render" + map + " --pixel -1" + out, "--pixel must be a positive");
-  expect_one_line_error(dir, "render" + map + " --z-min 2 --z-max 1" + out, "z-range is empty");
-  expect_one_line_error(dir, "render" + map + " --z-min 20" + out, "holds no voxel");
-  expect_one_line_error(dir, "render" + map + " --slice 0.5 --z-min 0" + out, "excludes --z-min");
+  expect_one_line_error(dir, "render" + map + " --z_min 2 --z_max 1" + out, "z-range is empty");
+  expect_one_line_error(dir, "render" + map + " --z_min 20" + out, "holds no voxel");
+  expect_one_line_error(dir, "render" + map + " --slice 0.5 --z_min 0" + out, "excludes --z_min");
   expect_one_line_error(dir, "render" + map + " --slice 40" + out, "outside the map");
   expect_one_line_error(dir, "render" + map + " -o " + d + "/no/such/dir/x.png", "does not exist");
   expect_one_line_error(dir, "render" + map + " -o " + d + "/x.jpg", "must be a .png file");
@@ -152,7 +181,7 @@ TEST(RenderCli, BadInputExitsNonZeroWithOneLine) {
   expect_one_line_error(dir, "render" + map + " --estimate " + d + "/none.tum" + out, "none.tum");
   tsdf_mcl::test::write_bytes(dir / "empty.tum", "");
   expect_one_line_error(dir, "render" + map + " --estimate " + d + "/empty.tum" + out, "holds no poses");
-  expect_one_line_error(dir, "render" + map + " --ground-truth " + d + "/nowhere" + out, "not a directory");
+  expect_one_line_error(dir, "render" + map + " --ground_truth " + d + "/nowhere" + out, "not a directory");
   expect_one_line_error(dir, "render" + map + " --pixel 0.00001" + out, "choose a larger pixel size");
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
 }

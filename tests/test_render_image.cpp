@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -23,6 +25,27 @@ constexpr Rgb kRed{200, 0, 0};
 
 bool dark(Rgb c) { return c.r < 128 && c.g < 128 && c.b < 128; }
 
+// Bounding box of the pixels darker than `threshold` in red (or, by default, of all differing from the background).
+struct Ink {
+  int pixels = 0;
+  float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;  // pixel edges
+};
+Ink ink_of(const Image& image, Rgb background, int threshold = 256) {
+  Ink ink;
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const Rgb c = image.at(x, y);
+      if (c == background || c.r >= threshold) continue;
+      ++ink.pixels;
+      ink.x0 = std::min(ink.x0, static_cast<float>(x));
+      ink.y0 = std::min(ink.y0, static_cast<float>(y));
+      ink.x1 = std::max(ink.x1, static_cast<float>(x + 1));
+      ink.y1 = std::max(ink.y1, static_cast<float>(y + 1));
+    }
+  }
+  return ink;
+}
+
 int count_not(const Image& image, Rgb background) {
   int n = 0;
   for (int y = 0; y < image.height(); ++y) {
@@ -43,6 +66,7 @@ TEST(ImageCanvas, StartsFilledAndChecksItsSize) {
   EXPECT_THROW(image.at(0, -1), Error);
   EXPECT_THROW(Image(0, 5), Error);
   EXPECT_THROW(Image(5, 40000), Error);
+  EXPECT_THROW(Image(tsdf_mcl::kMaxImageSide + 1, 1), Error);
 }
 
 TEST(ImageCanvas, LineCoversItsEndpointsAndThePathBetween) {
@@ -124,43 +148,102 @@ TEST(ImageCanvas, PolygonFillsItsInside) {
 }
 
 TEST(ImageCanvas, TextDrawsInkInsideItsBox) {
-  Image image(200, 60);
-  const Eigen::Vector4f box = image.draw_text(10.0f, 10.0f, "Height 1.5 m", {2.0f, colors::kBlack});
-  const Vector2f size = tsdf_mcl::text_size("Height 1.5 m", 2.0f);
+  Image image(220, 60);
+  const std::string text = "Height 1.5 mg";
+  const Eigen::Vector4f box = image.draw_text(10.0f, 10.0f, text, {2.0f, colors::kBlack});
+  const Vector2f size = tsdf_mcl::text_size(text, 2.0f);
+  EXPECT_FLOAT_EQ(box.x(), 10.0f);
+  EXPECT_FLOAT_EQ(box.y(), 10.0f);
   EXPECT_FLOAT_EQ(box.z() - box.x(), size.x());
   EXPECT_FLOAT_EQ(box.w() - box.y(), size.y());
-  EXPECT_FLOAT_EQ(size.y(), 18.0f);  // 7 units of capitals + 2 of descender
-  int inside = 0, outside = 0;
-  for (int y = 0; y < image.height(); ++y) {
-    for (int x = 0; x < image.width(); ++x) {
-      if (image.at(x, y) == colors::kWhite) continue;
-      const bool in = x >= box.x() - 1 && x <= box.z() && y >= box.y() - 1 && y <= box.w();
-      (in ? inside : outside)++;
-    }
+  EXPECT_NEAR(size.y(), 2.0f * 9.6f, 1.0f);  // ascenders to descenders of one line
+  const Ink ink = ink_of(image, colors::kWhite);
+  EXPECT_GT(ink.pixels, 100);
+  // All ink inside the box (anti-aliasing may touch the pixels along its edges), and the box no larger than the ink:
+  // the ascender of 'H'/'1' near its top, the descender of 'g' near its bottom.
+  EXPECT_GE(ink.x0, box.x() - 1.0f);
+  EXPECT_LE(ink.x1, box.z() + 1.0f);
+  EXPECT_GE(ink.y0, box.y() - 1.0f);
+  EXPECT_LE(ink.y1, box.w() + 1.0f);
+  EXPECT_LT(ink.x0, box.x() + 4.0f);
+  EXPECT_GT(ink.x1, box.z() - 4.0f);
+  EXPECT_LT(ink.y0, box.y() + 2.0f);
+  EXPECT_GT(ink.y1, box.w() - 2.0f);
+  // Lines are 12 units apart; the box grows by that per line.
+  EXPECT_NEAR(tsdf_mcl::text_size("a\nb\nc", 2.0f).y() - tsdf_mcl::text_size("a", 2.0f).y(), 48.0f, 1e-3f);
+  EXPECT_EQ(tsdf_mcl::text_size("", 2.0f), Vector2f::Zero());
+}
+
+TEST(ImageCanvas, TextIsSetInARealFont) {
+  // Capitals are 7 units high: 14 pixels at scale 2, 28 at scale 4.
+  for (const float scale : {2.0f, 4.0f}) {
+    Image image(200, 80);
+    image.draw_text(10.0f, 10.0f, "HEH", {scale, colors::kBlack});
+    const Ink ink = ink_of(image, colors::kWhite, 128);
+    EXPECT_NEAR(ink.y1 - ink.y0, 7.0f * scale, 1.0f) << scale;
   }
-  EXPECT_GT(inside, 100);
-  EXPECT_EQ(outside, 0);
+  // A proportional font: an 'i' is much narrower than an 'M'; sizes scale with the text scale.
+  EXPECT_LT(tsdf_mcl::text_size("iiii", 2.0f).x(), 0.5f * tsdf_mcl::text_size("MMMM", 2.0f).x());
+  EXPECT_NEAR(tsdf_mcl::text_size("Height", 4.0f).x(), 2.0f * tsdf_mcl::text_size("Height", 2.0f).x(), 1e-3f);
+  // Anti-aliased: edges have shades between ink and paper.
+  Image a(120, 40), b(120, 40);
+  a.draw_text(5.0f, 5.0f, "Ocean 08", {2.0f, colors::kBlack});
+  b.draw_text(5.0f, 5.0f, "Sound 36", {2.0f, colors::kBlack});
+  int grey = 0;
+  for (int y = 0; y < a.height(); ++y) {
+    for (int x = 0; x < a.width(); ++x) grey += a.at(x, y).r > 40 && a.at(x, y).r < 215;
+  }
+  EXPECT_GT(grey, 20);
+  // Different strings give different ink; the same string gives the same.
+  EXPECT_NE(a.pixels(), b.pixels());
+  Image again(120, 40);
+  again.draw_text(5.0f, 5.0f, "Ocean 08", {2.0f, colors::kBlack});
+  EXPECT_EQ(again.pixels(), a.pixels());
+  // UTF-8 beyond ASCII is drawn in its own glyphs, not as '?'.
+  Image umlaut(60, 40), question(60, 40);
+  umlaut.draw_text(5.0f, 5.0f, "\xc3\xa4 \xc2\xb0", {2.0f, colors::kBlack});  // "a-umlaut degree"
+  question.draw_text(5.0f, 5.0f, "? ?", {2.0f, colors::kBlack});
+  EXPECT_GT(count_not(umlaut, colors::kWhite), 20);
+  EXPECT_NE(umlaut.pixels(), question.pixels());
 }
 
 TEST(ImageCanvas, TextAlignsAndRotates) {
   Image image(200, 200);
-  const Eigen::Vector4f centred =
-      image.draw_text(100.0f, 50.0f, "ABC", {2.0f, colors::kBlack, tsdf_mcl::HAlign::kCenter, tsdf_mcl::VAlign::kMiddle});
+  const Eigen::Vector4f centred = image.draw_text(
+      100.0f, 50.0f, "HEH", {2.0f, colors::kBlack, tsdf_mcl::HAlign::kCenter, tsdf_mcl::VAlign::kMiddle});
   EXPECT_NEAR((centred.x() + centred.z()) / 2.0f, 100.0f, 0.01f);
-  EXPECT_NEAR(centred.y(), 50.0f - 7.0f, 0.01f);  // capitals centred on y
-  const Eigen::Vector4f up = image.draw_text(20.0f, 150.0f, "vertical", {2.0f, colors::kBlack, tsdf_mcl::HAlign::kLeft,
-                                                                         tsdf_mcl::VAlign::kTop, true});
-  EXPECT_GT(up.w() - up.y(), up.z() - up.x());
+  const Ink caps = ink_of(image, colors::kWhite, 128);
+  EXPECT_NEAR((caps.y0 + caps.y1) / 2.0f, 50.0f, 1.0f);  // capitals centred on y
+  EXPECT_NEAR((caps.x0 + caps.x1) / 2.0f, 100.0f, 1.5f);
+
+  Image bottom(200, 60);
+  const Eigen::Vector4f right = bottom.draw_text(
+      150.0f, 40.0f, "HEH", {2.0f, colors::kBlack, tsdf_mcl::HAlign::kRight, tsdf_mcl::VAlign::kBottom});
+  EXPECT_FLOAT_EQ(right.z(), 150.0f);
+  EXPECT_NEAR(ink_of(bottom, colors::kWhite, 128).y1, 40.0f, 1.0f);  // the baseline on y
+  EXPECT_GT(right.w(), 40.0f + 3.0f);                                // room for descenders below it
+
+  const Eigen::Vector4f up = image.draw_text(
+      20.0f, 150.0f, "vertical", {2.0f, colors::kBlack, tsdf_mcl::HAlign::kLeft, tsdf_mcl::VAlign::kTop, true});
+  EXPECT_NEAR(up.w() - up.y(), tsdf_mcl::text_size("vertical", 2.0f).x(), 1e-3f);
+  EXPECT_NEAR(up.z() - up.x(), tsdf_mcl::text_size("vertical", 2.0f).y(), 1e-3f);
   EXPECT_NEAR(up.w(), 150.0f, 0.01f);  // reads upwards from the anchor
-  int ink = 0;
-  for (int y = static_cast<int>(up.y()); y < static_cast<int>(up.w()); ++y) {
-    for (int x = static_cast<int>(up.x()); x < static_cast<int>(up.z()); ++x) ink += image.at(x, y) != colors::kWhite;
+  EXPECT_NEAR(up.x(), 20.0f, 0.01f);   // the tops of the letters face left, towards x
+  int ink = 0, ink_outside = 0;
+  for (int y = 90; y < 200; ++y) {
+    for (int x = 0; x < 60; ++x) {
+      const bool in = x >= up.x() - 1 && x <= up.z() + 1 && y >= up.y() - 1 && y <= up.w() + 1;
+      (in ? ink : ink_outside) += image.at(x, y) != colors::kWhite;
+    }
   }
   EXPECT_GT(ink, 50);
-  // Characters the font lacks are drawn as '?' instead of reading outside its tables.
-  Image other(100, 30);
+  EXPECT_EQ(ink_outside, 0);
+  // Control characters and malformed UTF-8 are drawn as '?' instead of being handed to Cairo.
+  Image other(100, 30), questions(100, 30);
   other.draw_text(5.0f, 5.0f, std::string("\x01\xff\xe4\n"), {2.0f, colors::kBlack});
+  questions.draw_text(5.0f, 5.0f, "???", {2.0f, colors::kBlack});
   EXPECT_GT(count_not(other, colors::kWhite), 0);
+  EXPECT_EQ(other.pixels(), questions.pixels());
 }
 
 TEST(ImageCanvas, ClippingAndWildCoordinatesAreHarmless) {
@@ -186,11 +269,52 @@ TEST(ImageCanvas, ClippingAndWildCoordinatesAreHarmless) {
   other.fill_rect(-100.0f, -100.0f, 1e9f, 2.0f, kRed);
   other.fill_polygon({{-10.0f, -10.0f}, {100.0f, 0.0f}, {0.0f, 100.0f}}, kRed, 0.2f);
   other.draw_text(-40.0f, 25.0f, "clipped text", {3.0f, colors::kBlack});
-  other.draw_text(25.0f, 25.0f, "clipped text", {3.0f, colors::kBlack, tsdf_mcl::HAlign::kLeft,
-                                                 tsdf_mcl::VAlign::kTop, true});
+  other.draw_text(25.0f, 25.0f, "clipped text",
+                  {3.0f, colors::kBlack, tsdf_mcl::HAlign::kLeft, tsdf_mcl::VAlign::kTop, true});
   other.stroke_circle({29.0f, 29.0f}, 15.0f, kRed, 3.0f);
   other.blit(image, -20, 20);
   EXPECT_EQ(other.at(0, 0), kRed);  // the rectangle along the top edge, inside the image
+}
+
+TEST(ImageCanvas, HugeCoordinatesKeepTheVisiblePartsExact) {
+  // Far beyond Cairo's fixed-point range (2^23 pixels): what shows is still the part inside, in the right place.
+  Image image(100, 100);
+  image.draw_line({10.5f, 10.5f}, {2e9f, 1e9f + 10.5f}, colors::kBlack, 2.0f);  // slope 1/2
+  EXPECT_TRUE(dark(image.at(50, 30)));
+  EXPECT_TRUE(dark(image.at(90, 50)));
+  EXPECT_EQ(image.at(90, 60), colors::kWhite);
+  image.draw_polyline({{95.5f, -1e30f}, {95.5f, 1e30f}}, kRed, 1.0f);
+  EXPECT_EQ(image.at(95, 50), kRed);
+  image.fill_polygon({{0.0f, 80.0f}, {1e12f, 80.0f}, {0.0f, 1e12f}}, kRed);  // a right angle at (0, 80)
+  EXPECT_EQ(image.at(50, 90), kRed);
+  EXPECT_EQ(image.at(50, 79), colors::kWhite);
+  image.fill_rect(-1e30f, 70.0f, 1e30f, 71.0f, colors::kBlack);
+  EXPECT_EQ(image.at(3, 70), colors::kBlack);
+
+  // A dashed line billions of pixels long costs only its visible part, and its dashes stay in phase.
+  Image dashes(100, 20);
+  const auto start = std::chrono::steady_clock::now();
+  dashes.draw_dashed_line({0.0f, 10.5f}, {4e9f, 10.5f}, colors::kBlack, 1.0f, 10.0f);
+  dashes.draw_dashed_polyline({{-4e9f, 5.5f}, {4e9f, 5.5f}}, colors::kBlack, 1.0f, 10.0f);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
+  EXPECT_TRUE(dark(dashes.at(5, 10)));
+  EXPECT_EQ(dashes.at(15, 10), colors::kWhite);
+  EXPECT_TRUE(dark(dashes.at(25, 10)));
+
+  // Circles and text far outside, or too large to draw, are left out without harm.
+  image.fill_circle({1e8f, 1e8f}, 5.0f, kRed);
+  image.stroke_circle({50.0f, 50.0f}, 1e9f, kRed, 3.0f);
+  image.draw_text(1e9f, 1e9f, "far", {2.0f, kRed});
+  image.draw_text(-1e7f, 50.0f, "huge", {1e6f, kRed});
+  image.draw_text(10.0f, 10.0f, "inf", {std::numeric_limits<float>::infinity(), kRed});
+  image.draw_text(10.0f, 10.0f, "nan", {std::numeric_limits<float>::quiet_NaN(), kRed});
+  EXPECT_TRUE(dark(image.at(50, 30)));  // the black line is still there
+  // Shapes larger than Cairo's range that cover the whole image fill it.
+  Image covered(20, 20), wide(20, 20);
+  covered.fill_circle({10.0f, 10.0f}, 3e38f, kRed);
+  wide.draw_line({10.0f, 10.0f}, {11.0f, 10.0f}, kRed, 1e30f);
+  EXPECT_EQ(count_not(covered, kRed), 0);
+  EXPECT_EQ(count_not(wide, kRed), 0);
 }
 
 TEST(ImageCanvas, ComposeGridPlacesImagesInCells) {
@@ -315,7 +439,8 @@ TEST(ImageLegend, LegendAndColorbarDrawInsideTheirSize) {
   EXPECT_EQ(image.at(static_cast<int>(5.0f + size.x()) + 2, 10), colors::kWhite);
   EXPECT_EQ(image.at(10, static_cast<int>(5.0f + size.y()) + 2), colors::kWhite);
 
-  const Vector2f bar = tsdf_mcl::draw_colorbar(image, 200.0f, 5.0f, 150.0f, tsdf_mcl::viridis, "0 m", "3 m", "height", 1.5f);
+  const Vector2f bar =
+      tsdf_mcl::draw_colorbar(image, 200.0f, 5.0f, 150.0f, tsdf_mcl::viridis, "0 m", "3 m", "height", 1.5f);
   EXPECT_GE(bar.x(), 150.0f);
   bool found_low = false, found_high = false;
   for (int y = 5; y < 5 + static_cast<int>(bar.y()); ++y) {

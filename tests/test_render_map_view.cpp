@@ -156,7 +156,7 @@ TEST(RenderMapView, SliceShowsSignedDistance) {
   EXPECT_EQ(cell_at(slice, {0.0, 0.0}), MapRaster::Cell::kFree);
   EXPECT_EQ(cell_at(slice, {0.0, 1.8}), MapRaster::Cell::kUnknown);
   EXPECT_EQ(color_at(slice, {0.0, 0.0}), colors::kWhite);  // beyond the truncation band
-  const Rgb near_wall = color_at(slice, {0.9, 0.0});        // 7.5 cm in front of the wall: tinted
+  const Rgb near_wall = color_at(slice, {0.9, 0.0});       // 7.5 cm in front of the wall: tinted
   EXPECT_NE(near_wall, colors::kWhite);
   EXPECT_NE(near_wall, color_at(slice, {kWallX, 0.0}));
   const auto c = slice.column_at({0.9, 0.0});

@@ -24,7 +24,8 @@ ParticleSnapshot sample_snapshot() {
   ParticleSnapshot s;
   s.particles.push_back({Vector3f(1.0f, 2.0f, 3.0f), Quaternionf(Eigen::AngleAxisf(0.3f, Vector3f::UnitZ())), 2.0f});
   s.particles.push_back({Vector3f(-4.5f, 0.25f, 0.0f), Quaternionf(2.0f, 0.0f, 0.0f, 0.0f), 6.0f});  // not unit
-  s.particles.push_back({Vector3f(0.0f, 0.0f, -1.0f), Quaternionf(Eigen::AngleAxisf(-2.0f, Vector3f(1, 1, 0).normalized())), 0.0f});
+  s.particles.push_back(
+      {Vector3f(0.0f, 0.0f, -1.0f), Quaternionf(Eigen::AngleAxisf(-2.0f, Vector3f(1, 1, 0).normalized())), 0.0f});
   return s;
 }
 
@@ -37,7 +38,8 @@ float float_at(const std::string& bytes, std::size_t offset) {
 void put_float(std::string& bytes, std::size_t offset, float v) { std::memcpy(&bytes[offset], &v, sizeof(v)); }
 
 void expect_read_error(const std::filesystem::path& file, const std::string& words) {
-  tsdf_mcl::test::expect_file_error(file, words, [](const std::filesystem::path& f) { tsdf_mcl::read_particle_snapshot(f); });
+  tsdf_mcl::test::expect_file_error(file, words,
+                                    [](const std::filesystem::path& f) { tsdf_mcl::read_particle_snapshot(f); });
 }
 
 }  // namespace
@@ -66,7 +68,8 @@ TEST(RenderParticleSnapshot, FileLayoutIsTheDocumentedOne) {
   EXPECT_EQ(bytes.substr(0, 8), "TSDFPART");
   const auto u32 = [&](std::size_t offset) {
     std::uint32_t v = 0;
-    for (int k = 0; k < 4; ++k) v |= static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[offset + k])) << (8 * k);
+    for (int k = 0; k < 4; ++k)
+      v |= static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[offset + k])) << (8 * k);
     return v;
   };
   EXPECT_EQ(u32(8), 1u);

@@ -8,13 +8,13 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_builder.hpp"
 
+using Eigen::Vector3d;
+using Eigen::Vector3f;
+using Eigen::Vector3i;
 using tsdf_mcl::Dataset;
 using tsdf_mcl::Pose;
 using tsdf_mcl::ScanMapOptions;
 using tsdf_mcl::TsdfMap;
-using Eigen::Vector3d;
-using Eigen::Vector3f;
-using Eigen::Vector3i;
 
 namespace {
 
@@ -125,7 +125,8 @@ TEST(ScanIntegration, BoxRoomDistancesFreeSpaceAndUnknownOutside) {
         }
         if (!head_on || std::abs(d) > 0.15) continue;
         ASSERT_TRUE(got.has_value()) << v.transpose() << " d " << d;
-        const double slack = 0.5 * std::sqrt(3.0) * 0.05 * std::tan(25.0 * M_PI / 180.0) + 2.0 * map.quantization_step();
+        const double slack =
+            0.5 * std::sqrt(3.0) * 0.05 * std::tan(25.0 * M_PI / 180.0) + 2.0 * map.quantization_step();
         if (d >= 0.0) {
           ++near_wall;
           EXPECT_GE(*got, d - slack) << v.transpose();

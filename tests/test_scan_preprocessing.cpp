@@ -16,7 +16,8 @@ std::vector<Eigen::Vector3f> ring_scan(std::size_t n, Rng& rng) {
   for (std::size_t i = 0; i < n; ++i) {
     const double a = rng.uniform(-M_PI, M_PI);
     const double r = a > 2.0 ? rng.uniform(2.0, 3.0) : rng.uniform(8.0, 12.0);
-    pts.emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)), static_cast<float>(rng.uniform(-1, 2)));
+    pts.emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)),
+                     static_cast<float>(rng.uniform(-1, 2)));
   }
   return pts;
 }
@@ -84,10 +85,14 @@ TEST(ScanPreprocessing, CapIsSpreadAndDeterministic) {
     return ScanPreprocessor(s).process(pts, 4);
   }();
   std::vector<double> share_all(8, 0.0), share_cap(8, 0.0);
-  auto sector = [](const Eigen::Vector3f& p) { return static_cast<int>(std::floor((std::atan2(p.y(), p.x()) + M_PI) / (M_PI / 4))) & 7; };
-  for (const auto& p : thinned_all) share_all[static_cast<std::size_t>(sector(p))] += 1.0 / static_cast<double>(thinned_all.size());
+  auto sector = [](const Eigen::Vector3f& p) {
+    return static_cast<int>(std::floor((std::atan2(p.y(), p.x()) + M_PI) / (M_PI / 4))) & 7;
+  };
+  for (const auto& p : thinned_all)
+    share_all[static_cast<std::size_t>(sector(p))] += 1.0 / static_cast<double>(thinned_all.size());
   for (const auto& p : a) share_cap[static_cast<std::size_t>(sector(p))] += 1.0 / 256.0;
-  for (int s = 0; s < 8; ++s) EXPECT_NEAR(share_cap[static_cast<std::size_t>(s)], share_all[static_cast<std::size_t>(s)], 0.05) << "sector " << s;
+  for (int s = 0; s < 8; ++s)
+    EXPECT_NEAR(share_cap[static_cast<std::size_t>(s)], share_all[static_cast<std::size_t>(s)], 0.05) << "sector " << s;
 }
 
 TEST(ScanPreprocessing, RejectsBadInput) {

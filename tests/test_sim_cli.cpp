@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "cli_test_support.hpp"
 #include "sim_test_helpers.hpp"
 #include "tsdf_mcl/dataset.hpp"
 
@@ -10,7 +11,7 @@ TEST(SimCli, ShortRunWritesADatasetAndASummary) {
   TempDir dir;
   const auto run = run_cli(
       "simulate --scene office --lidar os0-64 --route test --seed 3 --length 3 --obstacles 1 "
-      "--motion-distortion -o " +
+      "--motion_distortion -o " +
           (dir / "out").string(),
       dir.path());
   ASSERT_EQ(run.exit_code, 0) << run.output;
@@ -25,8 +26,10 @@ TEST(SimCli, HelpListsOptionsWithDefaults) {
   TempDir dir;
   const auto run = run_cli("simulate --help", dir.path());
   ASSERT_EQ(run.exit_code, 0);
-  for (const char* text : {"--scene", "[default: office]", "--lidar", "--route", "--odom-noise", "[default: 0.1]",
-                           "--motion-distortion", "--obstacles", "--ground-plane", "-o, --output DIR"}) {
+  for (const char* text :
+       {"--scene", "[default: office]", "symmetric", "warehouse", "--lidar", "--route", "--odom_noise",
+        "[default: 0.1]", "--motion_distortion", "--obstacles", "--ground_plane", "--platform", "ground|handheld|drone",
+        "[default: ground]", "--sensor_tilt", "--start", "--waypoints", "--walkers", "-o, --output DIR"}) {
     EXPECT_NE(run.output.find(text), std::string::npos) << text;
   }
 }
@@ -66,4 +69,44 @@ TEST(SimCli, BadInputFailsWithOneClearLine) {
                                 run.output.find('\n', run.output.find("error:")) + 1 == run.output.size();
     EXPECT_TRUE(one_error_line) << arguments << "\n" << run.output << "(" << errors << " lines)";
   }
+}
+
+TEST(SimCli, ScenePlatformAndRouteOptionsRejectBadValues) {
+  TempDir dir;
+  const std::pair<std::string, std::string> cases[] = {
+      {"--platform boat", "--platform"},
+      {"--sensor_tilt steep", "--sensor_tilt"},
+      {"--sensor_tilt 120", "sensor tilt"},
+      {"--platform drone --sensor_height 2", "--sensor_height"},
+      {"--start 1,2", "--start"},
+      {"--start 1,2,x", "--start"},
+      {"--waypoints '3,10;4'", "--waypoints"},
+      {"--waypoints '3,10;;4,10'", "--waypoints"},
+      {"--waypoints '3,10;90,10'", "waypoint 2 (90.00, 10.00)"},
+      {"--start 3,30,0", "route start"},
+      {"--route mapping --waypoints '3,10;8,10'", "test routes"},
+      {"--scene castle", "office, symmetric, warehouse"},
+      {"--route mapping --walkers 2", "walkers"},
+      {"--walkers 60", "at most 50 walkers"},
+  };
+  for (const auto& [options, words] : cases) {
+    tsdf_mcl::test::expect_one_line_error(dir, "simulate " + options + " -o " + (dir / "out").string(), words);
+  }
+}
+
+// A scripted handheld walk through the symmetric building: from the west wing to the landmark's room.
+TEST(SimCli, ScriptedWalkToTheLandmark) {
+  TempDir dir;
+  const auto run = tsdf_mcl::test::run_cli(
+      dir,
+      "simulate --scene symmetric --platform handheld --rate 5 --scan_spacing 0.5 --start 3,8,0 "
+      "--waypoints '33.8,8;33.8,4.6' -o " +
+          (dir / "out").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("on handheld"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("the landmark is first in view in scan"), std::string::npos) << run.err;
+  const tsdf_mcl::Dataset ds = tsdf_mcl::Dataset::open(dir / "out");
+  EXPECT_NEAR(ds.pose(0).translation().z(), 1.5, 0.03);
+  // The last scan kept (one per 0.5 m) is near the last waypoint.
+  EXPECT_LT((ds.pose(ds.size() - 1).translation().head<2>() - Eigen::Vector2d(33.8, 4.6)).norm(), 0.55);
 }

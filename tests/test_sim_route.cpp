@@ -17,17 +17,9 @@ using tsdf_mcl::sim::TraversabilityGrid;
 
 namespace {
 
-struct Office {
-  TriangleMesh mesh = tsdf_mcl::sim::office_scene(1);
-  RayCaster scene{mesh};
-  RobotModel robot;
-  TraversabilityGrid grid{scene, mesh, robot};
-};
+using Office = tsdf_mcl::test::SceneOnGrid;
 
-const Office& office() {
-  static const Office o;
-  return o;
-}
+const Office& office() { return tsdf_mcl::test::office_on_grid(); }
 
 // Distance from the base to the nearest surface at a few heights between a step and the robot's height.
 double clearance_at(const RayCaster& scene, const tsdf_mcl::Pose& base) {
@@ -171,5 +163,37 @@ TEST(SimRoute, AvzBuildingHasARouteIndoors) {
           building.cast(Eigen::Vector3f(static_cast<float>(p.x()), static_cast<float>(p.y()), 0.5f), d, 100.0f).hit();
     }
     EXPECT_GE(walls, 13) << "route pose " << p.transpose() << " is outdoors";
+  }
+}
+
+// A requested start (with its heading) and waypoints make the route: it turns on the spot from the
+// requested heading, passes each waypoint in order and ends at the last.
+TEST(SimRoute, StartAndWaypointsScriptTheRoute) {
+  const Office& o = office();
+  tsdf_mcl::sim::RouteRequest request;
+  request.start = Eigen::Vector3d(3.0, 10.2, M_PI);  // corridor, facing west
+  request.waypoints = {Eigen::Vector2d(12.0, 10.2), Eigen::Vector2d(11.5, 6.0), Eigen::Vector2d(20.0, 10.3)};
+  const Route route = tsdf_mcl::sim::plan_route(o.grid, o.scene, o.robot, RouteKind::test, 1, 0.0, request);
+  const auto& s = route.samples();
+  EXPECT_LT((s.front().world_T_base.translation().head<2>() - request.start->head<2>()).norm(), 0.08);
+  EXPECT_NEAR(tsdf_mcl::rpy_of(s.front().world_T_base.linear()).z(), M_PI, 1e-9);
+  EXPECT_GT(s[1].time, 2.0);  // about 180 deg at 1 rad/s before it drives east
+  EXPECT_LT((s.back().world_T_base.translation().head<2>() - request.waypoints.back()).norm(), 0.08);
+  std::size_t next = 0;
+  for (const auto& sample : s) {
+    if (next < request.waypoints.size() &&
+        (sample.world_T_base.translation().head<2>() - request.waypoints[next]).norm() < 0.08) {
+      ++next;
+    }
+  }
+  EXPECT_EQ(next, request.waypoints.size());
+  ASSERT_EQ(route.waypoints().size(), 4u);
+
+  request.waypoints.push_back(Eigen::Vector2d(25.0, 30.0));  // outside the building
+  try {
+    tsdf_mcl::sim::plan_route(o.grid, o.scene, o.robot, RouteKind::test, 1, 0.0, request);
+    FAIL() << "expected an error";
+  } catch (const tsdf_mcl::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("waypoint 4 (25.00, 30.00)"), std::string::npos) << e.what();
   }
 }

@@ -116,13 +116,7 @@ TEST(SimSimulate, OdometryDriftsButStaysBounded) {
   tsdf_mcl::sim::simulate(o, dir.path());
   const Dataset ds = Dataset::open(dir.path());
   ASSERT_GT(ds.size(), 40u);
-  double step_error = 0.0, step_length = 0.0;
-  for (std::size_t i = 1; i < ds.size(); ++i) {
-    const Pose truth = ds.pose(i - 1).inverse() * ds.pose(i);
-    const Pose odom = ds.odometry(i - 1).inverse() * ds.odometry(i);
-    step_error += (truth.translation() - odom.translation()).norm();
-    step_length += truth.translation().norm();
-  }
+  const tsdf_mcl::test::StepErrors steps = tsdf_mcl::test::odometry_step_errors(ds);
   // The first odometry pose is the sensor above the odom origin.
   EXPECT_LT((ds.odometry(0).translation() - Eigen::Vector3d(0, 0, 0.5)).norm(), 1e-6);
   const Pose truth = ds.pose(0).inverse() * ds.pose(ds.size() - 1);
@@ -130,8 +124,8 @@ TEST(SimSimulate, OdometryDriftsButStaysBounded) {
   const double drift = (truth.translation() - odom.translation()).norm();
   EXPECT_GT(drift, 0.01);
   EXPECT_LT(drift, 0.15 * 25.0);
-  EXPECT_GT(step_error, 0.02 * step_length);
-  EXPECT_LT(step_error, 0.5 * step_length);
+  EXPECT_GT(steps.error, 0.02 * steps.length);
+  EXPECT_LT(steps.error, 0.5 * steps.length);
 
   TempDir exact_dir;
   o.odometry.relative = 0.0;

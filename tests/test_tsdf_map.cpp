@@ -5,9 +5,9 @@
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/tsdf_map.hpp"
 
-using tsdf_mcl::TsdfMap;
 using Eigen::Vector3f;
 using Eigen::Vector3i;
+using tsdf_mcl::TsdfMap;
 
 TEST(TsdfMap, BlockAndLocalIndexAtBorders) {
   EXPECT_EQ(TsdfMap::block_of({0, 0, 0}), Vector3i(0, 0, 0));
@@ -25,7 +25,9 @@ TEST(TsdfMap, BlockAndLocalIndexAtBorders) {
 TEST(TsdfMap, EveryVoxelRoundTripsAcrossBlockBorders) {
   const float vs = 0.064f;
   TsdfMap map = TsdfMap::covering(vs, 0.6f, Vector3f(-2, -2, -2), Vector3f(2, 2, 2));
-  auto value = [](const Vector3i& v) { return 0.001f * static_cast<float>((v.x() * 7 + v.y() * 13 + v.z() * 31) % 500); };
+  auto value = [](const Vector3i& v) {
+    return 0.001f * static_cast<float>((v.x() * 7 + v.y() * 13 + v.z() * 31) % 500);
+  };
   for (int z = -20; z < 20; ++z)
     for (int y = -20; y < 20; ++y)
       for (int x = -20; x < 20; ++x) map.set_distance({x, y, z}, value({x, y, z}));

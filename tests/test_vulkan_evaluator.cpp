@@ -2,8 +2,9 @@
 // against the CPU reduction, on lavapipe with the validation layers on (any validation message fails).
 #include <gtest/gtest.h>
 
-#include "cpu/cpu_evaluator.hpp"
-#include "cpu/weight_reduction.hpp"
+#include "tsdf_mcl/cpu_evaluator.hpp"
+#include "tsdf_mcl/make_evaluator.hpp"
+#include "tsdf_mcl/weight_reduction.hpp"
 #include "sensor_test_support.hpp"
 #include "tsdf_mcl/error.hpp"
 
@@ -42,7 +43,8 @@ void copy_particles(const ParticleArrays& from, const ParticleArrays& to, std::s
 void expect_summaries_close(const WeightSummary& gpu, const WeightSummary& cpu) {
   EXPECT_NEAR(gpu.max_log_weight, cpu.max_log_weight, 1e-5 * std::abs(cpu.max_log_weight) + 1e-5);
   EXPECT_NEAR(gpu.weight_sum, cpu.weight_sum, 1e-4 * cpu.weight_sum);
-  for (int a = 0; a < 3; ++a) EXPECT_NEAR(gpu.mean_position[a], cpu.mean_position[a], 1e-4 * (1.0 + std::abs(cpu.mean_position[a])));
+  for (int a = 0; a < 3; ++a)
+    EXPECT_NEAR(gpu.mean_position[a], cpu.mean_position[a], 1e-4 * (1.0 + std::abs(cpu.mean_position[a])));
   for (int a = 0; a < 4; ++a) EXPECT_NEAR(gpu.quaternion_sum[a], cpu.quaternion_sum[a], 1e-4 * cpu.weight_sum);
   EXPECT_NEAR(gpu.fit_sum, cpu.fit_sum, 1e-4 * cpu.fit_sum);
 }
@@ -71,7 +73,8 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   const std::size_t points = 515;  // not a multiple of the shader's batch of points: the tail loop runs too
   gpu->reserve(n, points);
   cpu.reserve(n, points);
-  test::random_particles(cpu.particles(), n, rng, Eigen::Vector3f(-3.4f, -2.4f, -0.3f), Eigen::Vector3f(3.4f, 2.4f, 3.3f));
+  test::random_particles(cpu.particles(), n, rng, Eigen::Vector3f(-3.4f, -2.4f, -0.3f),
+                         Eigen::Vector3f(3.4f, 2.4f, 3.3f));
   copy_particles(cpu.particles(), gpu->particles(), n);
   const auto scan = test::random_scan(points, rng);
   gpu->set_points(scan);
@@ -137,7 +140,9 @@ TEST_P(VulkanReduction, AwkwardParticleCounts) {
 }
 
 INSTANTIATE_TEST_SUITE_P(SubgroupAndShared, VulkanReduction, ::testing::Values(true, false),
-                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "subgroup" : "shared_memory"; });
+                         [](const ::testing::TestParamInfo<bool>& p) {
+                           return p.param ? "subgroup" : "shared_memory";
+                         });
 
 TEST(VulkanEvaluator, GrowingKeepsParticlesAndSwapUsesTheOtherSet) {
   const TsdfMap map = test::make_room_map();

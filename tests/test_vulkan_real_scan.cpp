@@ -5,9 +5,10 @@
 #include <filesystem>
 #include <random>
 
-#include "cpu/cpu_evaluator.hpp"
+#include "tsdf_mcl/cpu_evaluator.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/make_evaluator.hpp"
 #include "tsdf_mcl/map_builder.hpp"
 
 namespace tsdf_mcl {

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package tsdf-mcl needs to build, test and run (as root or through sudo).
+# Installs every Debian 12 package tsdf-mcl needs to build, test and run (as root or through sudo); clang and its
+# runtimes (ASan, UBSan, libFuzzer, OpenMP) serve the sanitizer run and the fuzzers; Debian's ROS 1 rosbag_storage
+# and message headers, ROS bags (docs/bags.md; the build leaves bag support out where they are missing).
 set -euo pipefail
 
 packages=(
@@ -7,7 +9,10 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   glslc glslang-tools spirv-tools
   libeigen3-dev libglm-dev libgtest-dev
-  libhdf5-dev libembree-dev libstb-dev nlohmann-json3-dev libyaml-cpp-dev
+  libhdf5-dev libembree-dev nlohmann-json3-dev libyaml-cpp-dev libcairo2-dev fonts-dejavu-core libnanoflann-dev zlib1g-dev
+  clang-14 libclang-rt-14-dev libomp-14-dev clang-format-14 clang-tidy-14
+  librosbag-storage-dev libroscpp-core-dev libstd-msgs-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
+  libtf2-msgs-dev
 )
 
 if [ "$(id -u)" -eq 0 ]; then

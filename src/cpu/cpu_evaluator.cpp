@@ -1,4 +1,4 @@
-#include "cpu/cpu_evaluator.hpp"
+#include "tsdf_mcl/cpu_evaluator.hpp"
 
 #include <omp.h>
 
@@ -6,8 +6,8 @@
 #include <chrono>
 #include <thread>
 
-#include "cpu/endpoint_avx2.hpp"
-#include "cpu/weight_reduction.hpp"
+#include "endpoint_avx2.hpp"
+#include "tsdf_mcl/weight_reduction.hpp"
 #include "tsdf_mcl/error.hpp"
 
 namespace tsdf_mcl {
@@ -118,7 +118,7 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
       } else {
         float d;
         const bool known = kernel::sample_trilinear(map, g, &d);
-        v = product ? (known ? std::log(k.likelihood(d)) : k.log_p_rand) : (known ? k.likelihood(d) : k.p_rand);
+        v = product ? (known ? std::log(k.likelihood(d)) : k.log_p_unknown) : (known ? k.likelihood(d) : k.p_unknown);
       }
       acc += v;
     }

@@ -1,4 +1,4 @@
-#include "cpu/endpoint_avx2.hpp"
+#include "endpoint_avx2.hpp"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -23,9 +23,9 @@ __attribute__((target("avx2"))) inline __m256i less_unsigned(__m256i a, __m256i 
 }  // namespace
 
 __attribute__((target("avx2"))) void accumulate_nearest_avx2(const MapView& map, const float* table,
-                                                              const ParticleArrays& p, std::size_t begin,
-                                                              std::size_t end, const float* points,
-                                                              std::size_t point_count, float* acc_out) {
+                                                             const ParticleArrays& p, std::size_t begin,
+                                                             std::size_t end, const float* points,
+                                                             std::size_t point_count, float* acc_out) {
   const __m256i min_x = _mm256_set1_epi32(map.min_voxel[0]);
   const __m256i min_y = _mm256_set1_epi32(map.min_voxel[1]);
   const __m256i min_z = _mm256_set1_epi32(map.min_voxel[2]);
@@ -69,10 +69,10 @@ __attribute__((target("avx2"))) void accumulate_nearest_avx2(const MapView& map,
       __m256i v[3];
       for (int a = 0; a < 3; ++a) {
         // ((r0 px + r1 py) + r2 pz) + t, then * inv_voxel + 0.5: the scalar path's order, no FMA.
-        const __m256 w = _mm256_add_ps(
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r[3 * a], px), _mm256_mul_ps(r[3 * a + 1], py)),
-                          _mm256_mul_ps(r[3 * a + 2], pz)),
-            r[9 + a]);
+        const __m256 w =
+            _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r[3 * a], px), _mm256_mul_ps(r[3 * a + 1], py)),
+                                        _mm256_mul_ps(r[3 * a + 2], pz)),
+                          r[9 + a]);
         const __m256 g = _mm256_add_ps(_mm256_mul_ps(w, inv_voxel), half);
         v[a] = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_min_ps(_mm256_max_ps(g, lo), hi)));
       }
@@ -89,7 +89,8 @@ __attribute__((target("avx2"))) void accumulate_nearest_avx2(const MapView& map,
       const __m256i sentinel = less_unsigned(_mm256_set1_epi32(static_cast<int>(TsdfMap::kFreeBlock - 1)), entry);
       const __m256i l = _mm256_add_epi32(
           _mm256_and_si256(rx, seven),
-          _mm256_slli_epi32(_mm256_add_epi32(_mm256_and_si256(ry, seven), _mm256_slli_epi32(_mm256_and_si256(rz, seven), 3)), 3));
+          _mm256_slli_epi32(
+              _mm256_add_epi32(_mm256_and_si256(ry, seven), _mm256_slli_epi32(_mm256_and_si256(rz, seven), 3)), 3));
       const __m256i word_index = _mm256_add_epi32(_mm256_slli_epi32(entry, 8), _mm256_srli_epi32(l, 1));
       const __m256i word =
           _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), pool, word_index, _mm256_andnot_si256(sentinel, all), 4);
@@ -110,8 +111,8 @@ __attribute__((target("avx2"))) void accumulate_nearest_avx2(const MapView& map,
 
 bool avx2_available() { return false; }
 
-void accumulate_nearest_avx2(const MapView&, const float*, const ParticleArrays&, std::size_t, std::size_t, const float*,
-                             std::size_t, float*) {}
+void accumulate_nearest_avx2(const MapView&, const float*, const ParticleArrays&, std::size_t, std::size_t,
+                             const float*, std::size_t, float*) {}
 
 #endif
 

@@ -5,7 +5,8 @@
 // which is what a memory-bound loop needs.
 #include <cstddef>
 
-#include "cpu/endpoint_kernel.hpp"
+#include "tsdf_mcl/endpoint_kernel.hpp"
+#include "tsdf_mcl/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::kernel {
 
@@ -13,8 +14,7 @@ namespace tsdf_mcl::kernel {
 bool avx2_available();
 
 // acc[i] = Σ_j table[q(particle i, point j) + 32768] for particles [begin, end); points as x y z triples.
-void accumulate_nearest_avx2(const MapView& map, const float* table, const ParticleArrays& particles,
-                             std::size_t begin, std::size_t end, const float* points, std::size_t point_count,
-                             float* acc);
+void accumulate_nearest_avx2(const MapView& map, const float* table, const ParticleArrays& particles, std::size_t begin,
+                             std::size_t end, const float* points, std::size_t point_count, float* acc);
 
 }  // namespace tsdf_mcl::kernel

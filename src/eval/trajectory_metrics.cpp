@@ -9,36 +9,48 @@
 
 namespace tsdf_mcl {
 
+std::optional<std::size_t> nearest_stamp(const std::vector<double>& times, double time, double tolerance) {
+  const auto it = std::lower_bound(times.begin(), times.end(), time);
+  std::size_t best = times.size();
+  double gap = std::numeric_limits<double>::infinity();
+  for (auto c : {it, it == times.begin() ? it : it - 1}) {
+    if (c == times.end()) continue;
+    const double g = std::abs(*c - time);
+    if (g < gap) {
+      gap = g;
+      best = static_cast<std::size_t>(c - times.begin());
+    }
+  }
+  if (best == times.size() || (gap > 1e-6 && gap > tolerance)) return std::nullopt;
+  return best;
+}
+
 TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, const std::vector<double>& times,
-                                      const std::vector<Pose>& poses, const MetricsOptions& options) {
+                                      const std::vector<Pose>& poses, const MetricsOptions& options,
+                                      const std::vector<bool>* claims) {
   if (times.size() != poses.size()) {
-    throw Error("evaluate: " + std::to_string(times.size()) + " ground-truth times but " + std::to_string(poses.size()) +
-                " poses");
+    throw Error("evaluate: " + std::to_string(times.size()) + " ground-truth times but " +
+                std::to_string(poses.size()) + " poses");
   }
   if (estimate.empty()) throw Error("evaluate: the estimated trajectory is empty");
   if (times.empty()) throw Error("evaluate: no ground truth");
   if (!std::is_sorted(times.begin(), times.end())) throw Error("evaluate: ground-truth times are not sorted");
+  if (claims && claims->size() != estimate.size()) {
+    throw Error("evaluate: " + std::to_string(claims->size()) + " convergence flags for " +
+                std::to_string(estimate.size()) + " estimates");
+  }
 
   TrajectoryMetrics m;
   m.errors.reserve(estimate.size());
   for (const StampedPose& e : estimate) {
-    const auto it = std::lower_bound(times.begin(), times.end(), e.time);
-    std::size_t best = times.size();
-    double gap = std::numeric_limits<double>::infinity();
-    for (auto c : {it, it == times.begin() ? it : it - 1}) {
-      if (c == times.end()) continue;
-      const double g = std::abs(*c - e.time);
-      if (g < gap) {
-        gap = g;
-        best = static_cast<std::size_t>(c - times.begin());
-      }
-    }
-    if (best == times.size() || (gap > 1e-6 && gap > options.time_tolerance)) {
+    const std::optional<std::size_t> match = nearest_stamp(times, e.time, options.time_tolerance);
+    if (!match) {
       char buf[160];
       std::snprintf(buf, sizeof(buf), "evaluate: estimate at t=%.9f has no ground-truth pose within %.3f s", e.time,
                     options.time_tolerance);
       throw Error(buf);
     }
+    const std::size_t best = *match;
     PoseError pe;
     pe.time = e.time;
     pe.truth_index = best;
@@ -47,6 +59,23 @@ TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, 
     pe.rotation = rotation_angle_between(e.pose.linear(), poses[best].linear());
     pe.localized = pe.translation_norm <= options.max_translation_error && pe.rotation <= options.max_rotation_error;
     m.errors.push_back(pe);
+  }
+
+  if (claims) {
+    m.has_claims = true;
+    for (std::size_t i = 0; i < m.errors.size(); ++i) {
+      if (!(*claims)[i]) continue;
+      ++m.claimed_converged;
+      const PoseError& pe = m.errors[i];
+      if (pe.translation_norm <= options.false_convergence_translation &&
+          pe.rotation <= options.false_convergence_rotation) {
+        continue;
+      }
+      if (m.false_convergence++ == 0) {
+        m.first_false_index = i;
+        m.first_false_time = pe.time - m.errors.front().time;
+      }
+    }
   }
 
   std::size_t localized = 0;

@@ -15,8 +15,8 @@ void KldParameters::validate() const {
   if (max_particles > 0xFFFFFFFFull) throw Error("max_particles must fit in 32 bits");
   if (!(pf_err > 0.0 && pf_err < 1.0)) throw Error("pf_err must lie in (0, 1)");
   if (!(pf_z > -5.0 && pf_z < 10.0)) throw Error("pf_z must be a standard-normal quantile (e.g. 0.99 or 2.33)");
-  for (const auto& [name, v] : {std::pair{"kld_bin_xy", bin_xy}, std::pair{"kld_bin_z", bin_z},
-                                std::pair{"kld_bin_angle", bin_angle}}) {
+  for (const auto& [name, v] :
+       {std::pair{"kld_bin_xy", bin_xy}, std::pair{"kld_bin_z", bin_z}, std::pair{"kld_bin_angle", bin_angle}}) {
     if (!(v > 0.0f) || !std::isfinite(v)) throw Error(std::string(name) + " must be positive");
   }
 }
@@ -31,10 +31,12 @@ double kld_sample_count(double k, double pf_err, double pf_z) {
 std::uint64_t pose_bin_key(const Eigen::Vector3f& p, const Eigen::Quaternionf& q, float bin_xy, float bin_z,
                            float bin_angle) {
   const Eigen::Vector3d rpy = rpy_of(q.cast<double>().toRotationMatrix());
-  const std::int64_t cell[6] = {
-      static_cast<std::int64_t>(std::floor(p.x() / bin_xy)),  static_cast<std::int64_t>(std::floor(p.y() / bin_xy)),
-      static_cast<std::int64_t>(std::floor(p.z() / bin_z)),   static_cast<std::int64_t>(std::floor(rpy.x() / bin_angle)),
-      static_cast<std::int64_t>(std::floor(rpy.y() / bin_angle)), static_cast<std::int64_t>(std::floor(rpy.z() / bin_angle))};
+  const std::int64_t cell[6] = {static_cast<std::int64_t>(std::floor(p.x() / bin_xy)),
+                                static_cast<std::int64_t>(std::floor(p.y() / bin_xy)),
+                                static_cast<std::int64_t>(std::floor(p.z() / bin_z)),
+                                static_cast<std::int64_t>(std::floor(rpy.x() / bin_angle)),
+                                static_cast<std::int64_t>(std::floor(rpy.y() / bin_angle)),
+                                static_cast<std::int64_t>(std::floor(rpy.z() / bin_angle))};
   std::uint64_t key = 0x2545F4914F6CDD1Dull;
   for (std::int64_t c : cell) key = hash_combine(key, static_cast<std::uint64_t>(c));
   return key | 1u;  // never 0, the empty-slot marker
@@ -55,8 +57,8 @@ std::size_t KldSampler::required_count(const ParticleArrays& particles, const do
   double total = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!(weights[i] > 0.0)) continue;
-    const std::uint64_t key = pose_bin_key(particles.position(i), particles.rotation(i), params_.bin_xy,
-                                           params_.bin_z, params_.bin_angle);
+    const std::uint64_t key =
+        pose_bin_key(particles.position(i), particles.rotation(i), params_.bin_xy, params_.bin_z, params_.bin_angle);
     std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
     while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
     if (keys_[s] == 0) {

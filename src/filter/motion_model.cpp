@@ -16,19 +16,30 @@ MotionModelType parse_motion_model(const std::string& name) {
 
 std::string to_string(MotionModelType type) {
   switch (type) {
-    case MotionModelType::kOdometry: return "odometry";
-    case MotionModelType::kConstantVelocity: return "constant_velocity";
-    case MotionModelType::kDiffusion: return "diffusion";
+    case MotionModelType::kOdometry:
+      return "odometry";
+    case MotionModelType::kConstantVelocity:
+      return "constant_velocity";
+    case MotionModelType::kDiffusion:
+      return "diffusion";
   }
   return "?";
 }
 
 void MotionParameters::validate() const {
-  const std::pair<const char*, double> values[] = {
-      {"alpha1", alpha1}, {"alpha2", alpha2}, {"alpha3", alpha3}, {"alpha4", alpha4},
-      {"alpha5", alpha5}, {"alpha6", alpha6}, {"alpha7", alpha7}, {"alpha8", alpha8},
-      {"imu_sigma", imu_sigma}, {"diffusion_xy", diffusion_xy}, {"diffusion_z", diffusion_z},
-      {"diffusion_yaw", diffusion_yaw}, {"diffusion_roll_pitch", diffusion_roll_pitch}};
+  const std::pair<const char*, double> values[] = {{"alpha1", alpha1},
+                                                   {"alpha2", alpha2},
+                                                   {"alpha3", alpha3},
+                                                   {"alpha4", alpha4},
+                                                   {"alpha5", alpha5},
+                                                   {"alpha6", alpha6},
+                                                   {"alpha7", alpha7},
+                                                   {"alpha8", alpha8},
+                                                   {"imu_sigma", imu_sigma},
+                                                   {"diffusion_xy", diffusion_xy},
+                                                   {"diffusion_z", diffusion_z},
+                                                   {"diffusion_yaw", diffusion_yaw},
+                                                   {"diffusion_roll_pitch", diffusion_roll_pitch}};
   for (const auto& [name, v] : values) {
     if (!(v >= 0.0) || !std::isfinite(v)) throw Error(std::string(name) + " must be a non-negative number");
   }
@@ -65,7 +76,8 @@ MotionNoise motion_noise(const MotionParameters& p, const Pose& delta, double dt
   // Along = the motion's direction within the sensor's xy plane, so "across" stays horizontal in that frame.
   const Eigen::Vector2d planar(t.x(), t.y());
   if (planar.norm() > 1e-6) {
-    n.along = Eigen::Vector3f(static_cast<float>(t.x() / planar.norm()), static_cast<float>(t.y() / planar.norm()), 0.0f);
+    n.along =
+        Eigen::Vector3f(static_cast<float>(t.x() / planar.norm()), static_cast<float>(t.y() / planar.norm()), 0.0f);
     n.across = Eigen::Vector3f(-n.along.y(), n.along.x(), 0.0f);
   }
   double along = p.alpha3 * d + p.alpha4 * theta;

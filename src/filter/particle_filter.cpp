@@ -6,8 +6,11 @@
 #include <limits>
 #include <string>
 
-#include "cpu/weight_reduction.hpp"
+#include "tsdf_mcl/weight_reduction.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/hypothesis_weighting.hpp"
+#include "tsdf_mcl/motion_model.hpp"
+#include "tsdf_mcl/scan_fit.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -30,6 +33,12 @@ double tempered(const double* prior, const float* l, std::size_t n, double beta,
 
 }  // namespace
 
+void GlobalSearchOptions::validate() const {
+  if (screen_points == 0) throw Error("init_screen_points must be at least 1");
+  if (!(screen_sigma > 0.0f) || !std::isfinite(screen_sigma)) throw Error("init_screen_sigma must be positive");
+  proposal.validate();
+}
+
 void FilterParameters::validate() const {
   if (initial_particles == 0) throw Error("--particles must be at least 1");
   kld.validate();
@@ -42,11 +51,24 @@ void FilterParameters::validate() const {
   if (!(update_min_d >= 0.0) || !std::isfinite(update_min_d)) throw Error("update_min_d must not be negative");
   if (!(update_min_a >= 0.0) || !std::isfinite(update_min_a)) throw Error("update_min_a must not be negative");
   if (!(roughening_xyz >= 0.0) || !std::isfinite(roughening_xyz)) throw Error("roughening_xyz must not be negative");
-  if (!(roughening_angle >= 0.0) || !std::isfinite(roughening_angle)) throw Error("roughening_angle must not be negative");
+  if (!(roughening_angle >= 0.0) || !std::isfinite(roughening_angle))
+    throw Error("roughening_angle must not be negative");
   if (!(roughening_interval >= 0.0) || !std::isfinite(roughening_interval)) {
     throw Error("roughening_interval must not be negative");
   }
+  if (!(hypothesis_evidence_points >= 0.0) || !std::isfinite(hypothesis_evidence_points)) {
+    throw Error("hypothesis_evidence_points must not be negative");
+  }
+  if (!(hypothesis_min_weight > 0.0 && hypothesis_min_weight <= 1.0))
+    throw Error("hypothesis_min_weight must lie in (0, 1]");
+  if (!(inlier_distance > 0.0f) || !std::isfinite(inlier_distance)) throw Error("inlier_distance must be positive");
+  if (!(recovery_min_inliers >= 0.0 && recovery_min_inliers <= 1.0))
+    throw Error("recovery_min_inliers must lie in [0, 1]");
+  if (!(challenger_interval >= 0.0) || !std::isfinite(challenger_interval))
+    throw Error("challenger_interval must not be negative");
+  convergence.validate();
   global_init.validate();
+  global_search.validate();
   local_init.validate();
   estimate.validate();
 }
@@ -58,23 +80,30 @@ ParticleFilter::ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, c
       params_(params),
       kld_(params.kld),
       estimator_(params.estimate),
-      recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin) {
+      recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin),
+      convergence_(params.convergence) {
   params_.validate();
   if (map.empty()) throw Error("the map is empty");
+  if (params_.unknown_as_free) params_.sensor.unknown_distance = map.truncation();
+  // A global search needs more room in the evaluator (its scratch space) only while it runs: see
+  // reserve_search(); the host arrays follow the particle set, which never exceeds this.
   capacity_ = std::max(params_.initial_particles, params_.kld.max_particles);
   points_capacity_ = std::max<std::size_t>(points_hint, 1);
   evaluator_.reserve(capacity_, points_capacity_);
   prior_log_weight_.assign(capacity_, 0.0);
+  post_log_weight_.assign(capacity_, 0.0);
   weights_.assign(capacity_, 0.0);
+  group_.assign(capacity_, 0);
   ancestors_.assign(capacity_, 0u);
 }
 
-const FreeSpaceSampler& ParticleFilter::sampler() {
-  if (!sampler_) sampler_ = std::make_unique<FreeSpaceSampler>(map_, params_.global_init);
-  return *sampler_;
+GlobalProposal& ParticleFilter::proposal() {
+  if (!proposal_)
+    proposal_ = std::make_unique<GlobalProposal>(map_, params_.global_init, params_.global_search.proposal);
+  return *proposal_;
 }
 
-std::size_t ParticleFilter::free_space_voxels() { return sampler().candidate_voxels(); }
+std::size_t ParticleFilter::free_space_voxels() { return proposal().free_space().candidate_voxels(); }
 
 std::vector<double> ParticleFilter::particle_weights() const {
   std::vector<double> w(prior_log_weight_.begin(), prior_log_weight_.begin() + static_cast<std::ptrdiff_t>(count_));
@@ -96,15 +125,191 @@ void ParticleFilter::start(std::size_t count) {
   updates_since_resample_ = 0;
   injected_begin_ = injected_end_ = 0;
   recovery_.reset();
+  convergence_.reset();
   ever_converged_ = false;
+  ever_concentrated_ = false;
+  implausible_streak_ = 0;
+  last_challenge_time_ = -1e300;
+  challengers_weighed_ = false;
   estimate_ = PoseEstimate{};
 }
 
 void ParticleFilter::initialize_global() {
-  const FreeSpaceSampler& s = sampler();
-  s.sample(evaluator_.particles(), 0, params_.initial_particles, params_.seed, step_);
+  GlobalProposal& g = proposal();
+  g.use_uniform();
+  g.sample(evaluator_.particles(), 0, params_.initial_particles, params_.seed, step_);
   ++step_;
   start(params_.initial_particles);
+}
+
+void ParticleFilter::initialize_global(const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras) {
+  if (points.empty()) throw Error("global initialization: the scan has no points");
+  GlobalProposal& g = proposal();
+  if (extras.dense || extras.imu_up)
+    g.use_scan(extras.dense ? *extras.dense : points, extras.imu_up);
+  else
+    g.use_uniform();
+  const std::size_t n = params_.initial_particles;
+  if (params_.global_search.candidates > n) {
+    reserve_search(params_.global_search.candidates);
+    search(params_.global_search.candidates, n, points, evaluator_.spare_particles(), 0);
+    evaluator_.swap_particles();
+    climb(n, points);
+  } else {
+    g.sample(evaluator_.particles(), 0, n, params_.seed, step_);
+  }
+  ++step_;
+  start(n);
+}
+
+namespace {
+
+// The points a block of hypotheses is scored on, spread over the scan. For a gravity candidate, the rays
+// within 20° of its horizon: they hit walls and furniture, which tell positions and headings apart, while
+// floor and ceiling points fit any place at the right height (an OS0's +-45° beams are half floor and
+// ceiling, and scored on them a million hypotheses ranked the right place with the wrong ones).
+std::vector<Eigen::Vector3f> screening_points(const std::vector<Eigen::Vector3f>& points, const GravityCandidate* c,
+                                              std::size_t count) {
+  std::vector<Eigen::Vector3f> eligible;
+  if (c) {
+    const float horizon = std::sin(0.35f);
+    for (const Eigen::Vector3f& p : points) {
+      if (std::abs(p.dot(c->up)) <= horizon * p.norm()) eligible.push_back(p);
+    }
+  }
+  const std::vector<Eigen::Vector3f>& from = eligible.size() >= count / 2 ? eligible : points;
+  // The preprocessed points are in space-filling-curve order: every k-th one is spread over the scan.
+  std::vector<Eigen::Vector3f> subset;
+  const std::size_t every = std::max<std::size_t>(1, from.size() / count);
+  for (std::size_t i = 0; i < from.size() && subset.size() < count; i += every) subset.push_back(from[i]);
+  return subset;
+}
+
+}  // namespace
+
+void ParticleFilter::climb(std::size_t n, const std::vector<Eigen::Vector3f>& points) {
+  const GlobalSearchOptions& o = params_.global_search;
+  if (o.climb_rounds == 0) return;
+  constexpr std::size_t kTries = 3;  // jittered copies per particle and round
+  if ((kTries + 1) * n > capacity_) {
+    capacity_ = (kTries + 1) * n;
+    evaluator_.reserve(capacity_, points_capacity_);
+  }
+  EndpointModel wide = params_.sensor;
+  wide.sigma_hit = std::max(wide.sigma_hit, o.screen_sigma);
+  wide.weight_exponent = 1.0f;
+  wide.unknown_distance = map_.truncation();  // a smooth basin (EndpointModel::unknown_distance)
+  std::vector<Eigen::Vector3f> subset;
+  const std::size_t every = std::max<std::size_t>(1, points.size() / (2 * o.screen_points));
+  for (std::size_t i = 0; i < points.size() && subset.size() < 2 * o.screen_points; i += every)
+    subset.push_back(points[i]);
+  if (subset.size() > points_capacity_) {
+    points_capacity_ = subset.size();
+    evaluator_.reserve(capacity_, points_capacity_);
+  }
+  evaluator_.set_points(subset);
+  for (std::size_t round = 0; round < o.climb_rounds; ++round) {
+    // Smaller steps each round: from about the screening's resolution down.
+    const double scale = 1.0 / static_cast<double>(round + 1);
+    const auto step_xyz = static_cast<float>(0.1 * scale);
+    const auto step_angle = static_cast<float>(0.03 * scale);
+    const ParticleArrays p = evaluator_.particles();
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+    for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      Rng rng(params_.seed, 0xC11B0ull + round, step_, i);
+      for (std::size_t t = 0; t < kTries; ++t) {
+        const Eigen::Vector3f dp(step_xyz * static_cast<float>(rng.normal()),
+                                 step_xyz * static_cast<float>(rng.normal()),
+                                 step_xyz * static_cast<float>(rng.normal()));
+        const Eigen::Vector3f dr(step_angle * static_cast<float>(rng.normal()),
+                                 step_angle * static_cast<float>(rng.normal()),
+                                 step_angle * static_cast<float>(rng.normal()));
+        p.set(n + kTries * i + t, p.position(i) + dp, (p.rotation(i) * quaternion_exp(dr)).normalized());
+      }
+    }
+    evaluator_.evaluate((kTries + 1) * n, wide, Eigen::Quaternionf::Identity());
+    // Each hypothesis moves to its best variant: a climb per hypothesis, no competition between them, so a
+    // look-alike the screening found keeps its place beside the right one.
+    const ParticleArrays dst = evaluator_.spare_particles();
+    for (std::size_t i = 0; i < n; ++i) {
+      std::size_t best = i;
+      for (std::size_t t = 0; t < kTries; ++t) {
+        const std::size_t c = n + kTries * i + t;
+        if (p.log_weight[c] > p.log_weight[best]) best = c;
+      }
+      dst.set(i, p.position(best), p.rotation(best));
+    }
+    evaluator_.swap_particles();
+  }
+}
+
+void ParticleFilter::reserve_search(std::size_t candidates) {
+  const GlobalProposal& g = proposal();
+  std::size_t largest = 0;
+  for (std::size_t b = 0; b < g.blocks(); ++b) {
+    largest =
+        std::max(largest, static_cast<std::size_t>(std::lround(g.block_share(b) * static_cast<double>(candidates))));
+  }
+  if (largest > capacity_) {
+    capacity_ = largest;
+    evaluator_.reserve(capacity_, points_capacity_);
+  }
+}
+
+void ParticleFilter::search(std::size_t candidates, std::size_t keep, const std::vector<Eigen::Vector3f>& points,
+                            const ParticleArrays& dst, std::size_t offset) {
+  const GlobalSearchOptions& o = params_.global_search;
+  const GlobalProposal& g = proposal();
+  // The kept hypotheses are shared between the blocks by their mixture weights (largest remainders).
+  const std::size_t blocks = g.blocks();
+  std::vector<std::size_t> keep_of(blocks, 0);
+  std::vector<std::pair<double, std::size_t>> remainder;
+  std::size_t assigned = 0;
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const double exact = g.block_share(b) * static_cast<double>(keep);
+    keep_of[b] = static_cast<std::size_t>(std::floor(exact));
+    assigned += keep_of[b];
+    remainder.emplace_back(exact - std::floor(exact), b);
+  }
+  std::sort(remainder.begin(), remainder.end(), [](const auto& a, const auto& b) {
+    return a.first > b.first || (a.first == b.first && a.second < b.second);
+  });
+  for (std::size_t r = 0; assigned < keep; ++r, ++assigned) ++keep_of[remainder[r % blocks].second];
+
+  EndpointModel wide = params_.sensor;
+  wide.sigma_hit = std::max(wide.sigma_hit, o.screen_sigma);
+  wide.weight_exponent = 1.0f;
+  wide.unknown_distance = map_.truncation();  // a smooth basin (EndpointModel::unknown_distance)
+  const ParticleArrays scratch = evaluator_.particles();
+  std::vector<std::uint32_t> order;
+  std::size_t written = 0;
+  for (std::size_t b = 0; b < blocks; ++b) {
+    if (keep_of[b] == 0) continue;
+    const std::size_t m =
+        std::clamp(static_cast<std::size_t>(std::lround(g.block_share(b) * static_cast<double>(candidates))),
+                   keep_of[b], capacity_);
+    g.sample_block(b, scratch, 0, m, params_.seed, step_);
+    const std::vector<Eigen::Vector3f> subset = screening_points(points, g.block_candidate(b), o.screen_points);
+    if (subset.size() > points_capacity_) {
+      points_capacity_ = subset.size();
+      evaluator_.reserve(capacity_, points_capacity_);
+    }
+    evaluator_.set_points(subset);
+    evaluator_.evaluate(m, wide, Eigen::Quaternionf::Identity());
+    order.resize(m);
+    for (std::size_t i = 0; i < m; ++i) order[i] = static_cast<std::uint32_t>(i);
+    const std::size_t k = keep_of[b];
+    std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k - 1), order.end(),
+                     [&](std::uint32_t a, std::uint32_t c) {
+                       return scratch.log_weight[a] > scratch.log_weight[c] ||
+                              (scratch.log_weight[a] == scratch.log_weight[c] && a < c);
+                     });
+    std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k));
+    for (std::size_t j = 0; j < k; ++j)
+      dst.set(offset + written + j, scratch.position(order[j]), scratch.rotation(order[j]));
+    written += k;
+  }
 }
 
 void ParticleFilter::initialize_local(const Pose& pose) {
@@ -144,9 +349,144 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
     beta = std::exp(lo);
     ess = tempered(prior_log_weight_.data(), p.log_weight, n, beta, weights_.data());
   }
-  for (std::size_t i = 0; i < n; ++i) prior_log_weight_[i] += beta * p.log_weight[i];
+  for (std::size_t i = 0; i < n; ++i) post_log_weight_[i] = prior_log_weight_[i] + beta * p.log_weight[i];
   step.tempering = beta;
   step.ess = ess;
+}
+
+void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
+  estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
+  std::vector<Hypothesis>& h = estimate_.hypotheses;
+  const auto k = static_cast<std::int32_t>(h.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int32_t g = estimator_.hypothesis_of(i);
+    group_[i] = g >= 0 ? g : k;
+  }
+  // Each hypothesis's evidence: the mean log-likelihood per point at its mean pose refined onto the map (the
+  // place's fit, not its particles' alignment); the refined pose is the hypothesis's estimate. The rest
+  // (lighter modes, challengers, stray particles) have no one pose: theirs is their marginal likelihood per
+  // point. A scan counts as hypothesis_evidence_points independent points, or as few as the tempering lets the
+  // particles count it while that is fewer (a spread, global belief: no early verdict between its modes).
+  EndpointModel plain = params_.sensor;
+  plain.weight_exponent = 1.0f;
+  const auto count = static_cast<double>(points.size());
+  std::vector<double> evidence(h.size() + 1, 0.0);
+  std::vector<Pose> refined(h.size());
+  std::vector<std::vector<double>> point_log(h.size());
+  std::size_t reference = 0;  // the best-fitting hypothesis
+  std::vector<double> totals(h.size(), 0.0);
+  // Each hypothesis's heaviest particle: a second start for the refinement. A mode's mean sits off its place
+  // while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps from
+  // there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
+  std::vector<std::size_t> heaviest(h.size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto g = static_cast<std::size_t>(group_[i]);
+    if (g < h.size() && (heaviest[g] == n || weights_[i] > weights_[heaviest[g]])) heaviest[g] = i;
+  }
+  std::vector<double> candidate_log;
+  const ParticleArrays particles = evaluator_.particles();
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    totals[r] = -std::numeric_limits<double>::infinity();
+    std::vector<Pose> starts{h[r].pose};
+    if (heaviest[r] < n) {
+      Pose best = Pose::Identity();
+      best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
+      best.translation() = particles.position(heaviest[r]).cast<double>();
+      starts.push_back(best);
+    }
+    for (const Pose& start : starts) {
+      const Pose candidate = refine_pose(map_, start, points);
+      const Eigen::Quaternionf q(Eigen::Quaterniond(candidate.linear()).cast<float>());
+      point_log_likelihoods(map_, plain, candidate.translation().cast<float>(), q, points, candidate_log);
+      double total = 0.0;
+      for (double l : candidate_log) total += l;
+      if (total > totals[r]) {
+        totals[r] = total;
+        refined[r] = candidate;
+        point_log[r].swap(candidate_log);
+      }
+    }
+    if (totals[r] > totals[reference]) reference = r;
+  }
+  // Between places, only the points that one place explains and the other does not are evidence: each point's
+  // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
+  // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
+  // and tenths of a degree by which their refined poses happen to differ; summed over hundreds of points and
+  // scans, those differences were a random walk that decided between identical places (within a few hundred
+  // scans in the symmetric test building). A feature only one of them has (a cabinet) still moves its points by
+  // the whole hit-versus-miss ratio of the model.
+  const double dead_band = 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
+                           static_cast<double>(plain.sigma_hit * plain.sigma_hit);
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    double paired = 0.0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const double d = point_log[r][i] - point_log[reference][i];
+      paired += std::copysign(std::max(std::abs(d) - dead_band, 0.0), d);
+    }
+    evidence[r] = (totals[reference] + paired) / count;
+  }
+  {
+    const ParticleArrays p = evaluator_.particles();
+    const double to_plain = 1.0 / params_.sensor.weight_exponent;
+    for (std::size_t i = 0; i < n; ++i) weights_[i] = prior_log_weight_[i] + to_plain * p.log_weight[i];
+    const std::vector<double> with = group_log_sums(weights_.data(), group_.data(), n, h.size() + 1);
+    const std::vector<double> without = group_log_sums(prior_log_weight_.data(), group_.data(), n, h.size() + 1);
+    if (std::isfinite(with[h.size()]) && std::isfinite(without[h.size()])) {
+      evidence[h.size()] = (with[h.size()] - without[h.size()]) / count;
+    }
+  }
+  const double best = *std::max_element(evidence.begin(), evidence.end());
+  // Until the belief first concentrates, no more than the tempering lets the particles count (a spread, global
+  // belief: no early verdict between its modes); after, the tempering only keeps the particles of one tight mode
+  // from degenerating and says nothing about how far apart two places are.
+  const double per_point = step.tempering * params_.sensor.weight_exponent * count;
+  const double scale = params_.hypothesis_evidence_points <= 0.0 ? per_point
+                       : ever_concentrated_                      ? params_.hypothesis_evidence_points
+                                            : std::min(params_.hypothesis_evidence_points, per_point);
+  for (double& e : evidence) e = scale * (e - best);
+  group_share_ = reweight_groups(prior_log_weight_.data(), post_log_weight_.data(), group_.data(), n, evidence);
+  const double max =
+      *std::max_element(post_log_weight_.begin(), post_log_weight_.begin() + static_cast<std::ptrdiff_t>(n));
+  for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(post_log_weight_[i] - max);
+  step.ess = effective_sample_size(weights_.data(), n);
+
+  // Hypotheses ranked by their tempered shares, each with its fit.
+  std::vector<std::int32_t> rank(h.size());
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    h[r].weight = group_share_[r];
+    h[r].pose = refined[r];
+    const RayFit fit = ray_fit(map_, h[r].pose, points, params_.inlier_distance);
+    h[r].inlier_ratio = fit.inlier_ratio();
+    h[r].see_through_ratio = fit.see_through_ratio();
+    rank[r] = static_cast<std::int32_t>(r);
+  }
+  std::stable_sort(rank.begin(), rank.end(), [&](std::int32_t a, std::int32_t b) {
+    return h[static_cast<std::size_t>(a)].weight > h[static_cast<std::size_t>(b)].weight;
+  });
+  std::vector<Hypothesis> sorted;
+  std::vector<std::int32_t> new_index(h.size() + 1, k);
+  std::vector<double> shares(h.size() + 1, group_share_[h.size()]);
+  for (std::size_t r = 0; r < rank.size(); ++r) {
+    sorted.push_back(h[static_cast<std::size_t>(rank[r])]);
+    new_index[static_cast<std::size_t>(rank[r])] = static_cast<std::int32_t>(r);
+    shares[r] = group_share_[static_cast<std::size_t>(rank[r])];
+  }
+  for (std::size_t i = 0; i < n; ++i) group_[i] = new_index[static_cast<std::size_t>(group_[i])];
+  group_share_ = shares;
+  h = std::move(sorted);
+
+  const Hypothesis& top = h.front();
+  const PoseEstimateOptions& o = params_.estimate;
+  if (!o.best_particle) estimate_.pose = top.pose;
+  estimate_.covariance = top.covariance;
+  estimate_.mode_weight = top.weight;
+  estimate_.mode_particles = top.particles;
+  estimate_.std_position = top.std_position;
+  estimate_.std_rotation = top.std_rotation;
+  estimate_.inlier_ratio = top.inlier_ratio;
+  estimate_.see_through_ratio = top.see_through_ratio;
+  step.concentrated = top.weight >= o.converged_weight && top.std_position <= o.converged_std_xyz &&
+                      top.std_rotation <= o.converged_std_angle;
 }
 
 double ParticleFilter::belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const {
@@ -164,10 +504,84 @@ double ParticleFilter::belief_fit(std::size_t n, const WeightSummary& summary, s
   return sum / static_cast<double>(n - (end - begin));
 }
 
-void ParticleFilter::resample(std::size_t n, std::size_t kept, std::size_t injected, FilterStep& step) {
+ParticleFilter::Injection ParticleFilter::plan_injection(double time, const FilterStep& step) const {
+  Injection in;
+  const std::size_t max = params_.kld.max_particles;
+  if (step.random_share > 0.0) {
+    // Recovery. After an implausible fit the track is wrong and the search starts over: screened on this scan
+    // like a global search. After a dip of the relative fit (a correct track shows them now and then) drawn as
+    // they come: only a lost track lets such guesses win.
+    in.count = std::min(max, static_cast<std::size_t>(std::lround(step.random_share * static_cast<double>(max))));
+    in.candidates =
+        step.implausible ? std::max(in.count, std::min(10 * in.count, params_.global_search.candidates)) : in.count;
+    in.share = step.random_share;
+  } else if (params_.challenger_candidates > 0 && ever_concentrated_ &&
+             time - last_challenge_time_ >= params_.challenger_interval) {
+    in.candidates = params_.challenger_candidates;
+    in.count = std::max<std::size_t>(1, in.candidates / 200);
+    // A tenth of a competitor's share: one scan that a challenger explains clearly better makes it one.
+    in.share = params_.convergence.competitor_min_weight / 10.0;
+  }
+  return in;
+}
+
+void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection& injection,
+                              const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
+  const std::size_t injected = std::min(injection.count, params_.kld.max_particles);
+  if (injection.candidates > injected) reserve_search(injection.candidates);  // before any view is taken
+  // Particle counts per group: each hypothesis heavy enough to keep at least hypothesis_min_particles, the rest
+  // of the budget by share. Lighter hypotheses join the rest and take their chances.
+  const std::size_t groups = group_share_.size();
+  const std::size_t rest = groups - 1;
+  std::vector<std::size_t> counts(groups, 0);
+  std::vector<bool> kept_group(groups, false);
+  double rest_share = group_share_[rest];
+  for (std::size_t g = 0; g < rest; ++g) {
+    if (group_share_[g] >= params_.hypothesis_min_weight) {
+      kept_group[g] = true;
+      counts[g] = std::max(params_.hypothesis_min_particles,
+                           static_cast<std::size_t>(std::lround(group_share_[g] * static_cast<double>(budget))));
+    } else {
+      rest_share += group_share_[g];
+    }
+  }
+  // Every credible hypothesis (one that could compete, convergence.hpp) gets as many particles as the largest:
+  // with fewer, its mean sits a little off, its fit at its refined pose comes out a little worse, and the
+  // evidence drifts towards whichever look-alike happened to hold more particles.
+  std::size_t credible_count = 0;
+  for (std::size_t g = 0; g < rest; ++g) {
+    if (group_share_[g] >= params_.convergence.competitor_min_weight)
+      credible_count = std::max(credible_count, counts[g]);
+  }
+  for (std::size_t g = 0; g < rest; ++g) {
+    if (group_share_[g] >= params_.convergence.competitor_min_weight) counts[g] = credible_count;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!kept_group[static_cast<std::size_t>(group_[i])]) group_[i] = static_cast<std::int32_t>(rest);
+  }
+  double rest_weight = 0.0;
+  for (std::size_t i = 0; i < n; ++i) rest_weight += group_[i] == static_cast<std::int32_t>(rest) ? weights_[i] : 0.0;
+  counts[rest] =
+      rest_weight > 0.0 ? static_cast<std::size_t>(std::lround(rest_share * static_cast<double>(budget))) : 0;
+  // The challengers' pool: the places outside the heaviest hypotheses keep refining, however light.
+  if (rest_weight > 0.0 && params_.challenger_candidates > 0 && ever_concentrated_) {
+    counts[rest] = std::max(counts[rest], std::max<std::size_t>(1, params_.challenger_candidates / 200));
+  }
+  std::size_t kept = 0;
+  for (std::size_t c : counts) kept += c;
+  const std::size_t room = params_.kld.max_particles - injected;
+  if (kept > room) {  // floors of many hypotheses over the cap: everyone shrinks alike
+    const double scale = static_cast<double>(room) / static_cast<double>(kept);
+    kept = 0;
+    for (std::size_t& c : counts) kept += (c = static_cast<std::size_t>(std::floor(static_cast<double>(c) * scale)));
+  }
+  if (kept == 0) {  // rounding left nothing: keep the dominant hypothesis
+    counts[kept_group[0] ? 0 : rest] = std::max<std::size_t>(1, std::min(room, budget));
+    kept = counts[kept_group[0] ? 0 : rest];
+  }
+
   Rng rng(params_.seed, 0x2E5A3Bull, step_);
-  const std::size_t target = kept + injected;
-  tsdf_mcl::resample(params_.resample_method, weights_.data(), n, kept, rng, ancestors_.data());
+  group_resampler_.resample(params_.resample_method, weights_.data(), group_.data(), n, counts, rng, ancestors_.data());
   const ParticleArrays src = evaluator_.particles();
   const ParticleArrays dst = evaluator_.spare_particles();
   for (std::size_t j = 0; j < kept; ++j) {
@@ -180,19 +594,47 @@ void ParticleFilter::resample(std::size_t n, std::size_t kept, std::size_t injec
     dst.qy[j] = src.qy[a];
     dst.qz[j] = src.qz[a];
   }
-  if (injected > 0) sampler().sample(dst, kept, target, params_.seed, step_);
-  injected_begin_ = kept;
-  injected_end_ = target;
+  if (injected > 0) {
+    if (injection.candidates > injected)
+      search(injection.candidates, injected, points, dst, kept);
+    else
+      proposal().sample(dst, kept, kept + injected, params_.seed, step_);
+  }
+  // Each group's share is spread over its new particles. The injected particles carry the injection's share of
+  // the belief, however many they are: many, to cover the map; a small share, while the evidence for a lost
+  // track is weak (a correct track's fit dips now and then).
+  const double injected_share = injected > 0 ? std::clamp(injection.share, 1e-9, 1.0 - 1e-6) : 0.0;
+  std::size_t j = 0;
+  for (std::size_t g = 0; g < groups; ++g) {
+    const double share = g == rest ? rest_share : group_share_[g];
+    const double log_w = std::log(std::max(share, 1e-300) / static_cast<double>(std::max<std::size_t>(counts[g], 1))) +
+                         std::log1p(-injected_share);
+    for (std::size_t c = 0; c < counts[g]; ++c) prior_log_weight_[j++] = log_w;
+  }
+  const double injected_log_w = injected > 0 ? std::log(injected_share / static_cast<double>(injected)) : 0.0;
+  for (std::size_t i = kept; i < kept + injected; ++i) prior_log_weight_[i] = injected_log_w;
   evaluator_.swap_particles();
-  count_ = target;
-  std::fill_n(prior_log_weight_.begin(), count_, 0.0);
+  injected_begin_ = kept;
+  injected_end_ = kept + injected;
+  count_ = kept + injected;
   updates_since_resample_ = 0;
   step.resampled = true;
-  step.injected = injected;
+}
+
+double ParticleFilter::judge_fit(FilterStep& step) {
+  // Absolute: once the belief has concentrated, a dominant hypothesis that explains too little of the scan
+  // is wrong, however steady (a running average that started at a wrong lock would call it normal).
+  ever_concentrated_ = ever_concentrated_ || step.concentrated;
+  const bool implausible =
+      params_.recovery_min_inliers > 0.0 && ever_concentrated_ && estimate_.inlier_ratio < params_.recovery_min_inliers;
+  implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
+  step.implausible = implausible;
+  if (implausible_streak_ < 2) return 0.0;
+  return std::clamp(1.0 - estimate_.inlier_ratio / params_.recovery_min_inliers, 0.0, 1.0);
 }
 
 FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
-                                  const std::optional<Pose>& odometry) {
+                                  const std::optional<Pose>& odometry, const ScanExtras& extras) {
   const auto t_start = Clock::now();
   if (!initialized_) throw Error("the particle filter is not initialized");
   if (points.empty()) throw Error("empty scan: no points left for the sensor update");
@@ -212,7 +654,8 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
         delta = orthonormalized(last_odometry_->inverse() * *odometry);
         break;
       case MotionModelType::kConstantVelocity:
-        if (velocity_delta_ && velocity_dt_ > 0.0) delta = scale_motion(*velocity_delta_, (time - last_time_) / velocity_dt_);
+        if (velocity_delta_ && velocity_dt_ > 0.0)
+          delta = scale_motion(*velocity_delta_, (time - last_time_) / velocity_dt_);
         break;
       case MotionModelType::kDiffusion:
         break;
@@ -225,6 +668,8 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
               (!ever_converged_ && time - last_time_ >= params_.roughening_interval);
     }
   }
+  moved = moved || force_update_;
+  force_update_ = false;
   if (!moved) {
     estimate_.pose = last_estimate_pose_ * delta;
     step.estimate = estimate_;
@@ -268,16 +713,32 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   t0 = Clock::now();
   prepare_weights(n, step);
   const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
-  estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
+  weigh_hypotheses(n, points, step);
   step.fit = belief_fit(n, summary, points.size());
-  // The fit averages start at the first convergence: a belief spread over the map fits badly by nature, and
-  // a long-term average that remembers that phase would set the bar too low to ever notice a wrong lock.
-  ever_converged_ = ever_converged_ || estimate_.converged;
-  if (ever_converged_) step.random_share = recovery_.update(step.fit);
+  // Recovery follows the dominant hypothesis's inlier ratio: it falls when the track is lost and hardly moves
+  // on a correct one (the likelihood-based fit dips by a third whenever the cloud spreads in a turn). The
+  // averages start at the first convergence: a belief spread over the map fits badly by nature, and a long-term
+  // average that remembers that phase would set the bar too low to ever notice a lost track.
+  if (ever_converged_) step.random_share = recovery_.update(estimate_.inlier_ratio);
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
-  // A concentrated cloud whose fit has collapsed is concentrated in the wrong place.
-  if (step.random_share > 0.0) estimate_.converged = false;
+  const double implausible_share = judge_fit(step);
+  step.random_share = std::max(step.random_share, implausible_share);
+  // Recovery moving more of the belief elsewhere than converged_weight allows outside the dominant mode: lost.
+  challengers_weighed_ = challengers_weighed_ || last_challenge_time_ > -1e300;
+  estimate_.converged = convergence_.update(estimate_, step.concentrated, delta,
+                                            step.random_share > 1.0 - params_.estimate.converged_weight,
+                                            challengers_weighed_ || params_.challenger_candidates == 0);
+  step.challenged = convergence_.challenged(estimate_);
+  ever_converged_ = ever_converged_ || estimate_.converged;
+  if (implausible_share > 0.0) {
+    // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
+    ever_converged_ = false;
+    recovery_.reset();
+    convergence_.reset();
+    challengers_weighed_ = false;
+    last_challenge_time_ = -1e300;
+  }
   step.estimate = estimate_;
   step.timings.reduce_ms = ms_since(t0);
 
@@ -294,15 +755,38 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
 
   t0 = Clock::now();
   ++updates_since_resample_;
+  bool resampled = false;
   if (updates_since_resample_ >= params_.resample_interval) {
+    const Injection injection = plan_injection(time, step);
+    const std::size_t injected = injection.count;
     const std::size_t max = params_.kld.max_particles;
-    const auto injected = std::min(max, static_cast<std::size_t>(std::lround(step.random_share * static_cast<double>(max))));
-    const std::size_t kept = std::min(kld_.required_count(evaluator_.particles(), weights_.data(), n), max - injected);
+    const std::size_t budget =
+        std::min(kld_.required_count(evaluator_.particles(), weights_.data(), n), max - injected);
     step.kld_bins = kld_.occupied_bins();
     const bool depleted = step.ess < params_.resample_ess_ratio * static_cast<double>(n);
-    const bool resize = kept + injected < n / 2 || kept + injected > n;
-    if (depleted || resize || injected > 0) resample(n, kept, injected, step);
+    const bool resize = budget + injected < n / 2 || budget + injected > n;
+    // Injected hypotheses follow this scan's up direction and floor height, like a global search's. Challengers
+    // of a converged track keep its up direction, as an IMU's gravity would: the sensor's tilt changes between
+    // scans only as the odometry says, and the track knows it to a fraction of a degree. A sideways or
+    // upside-down look-alike has no say then (a drone under the ceiling fits a flipped sensor above the
+    // floor); a wrong lock is left by the implausible-fit search, which considers every direction again.
+    std::optional<Eigen::Vector3f> up = extras.imu_up;
+    if (!up && ever_converged_ && step.random_share == 0.0) {
+      up = (estimate_.pose.linear().transpose().cast<float>() * proposal().map_up()).normalized();
+    }
+    if (injected > 0 && (extras.dense || up)) proposal().use_scan(extras.dense ? *extras.dense : points, up);
+    if (depleted || resize || injected > 0) {
+      resample(n, budget, injection, points, step);
+      resampled = true;
+      if (step.random_share > 0.0) {
+        step.injected = injected;
+      } else if (injected > 0) {
+        last_challenge_time_ = time;
+        step.challengers = injected;
+      }
+    }
   }
+  if (!resampled) std::copy_n(post_log_weight_.begin(), n, prior_log_weight_.begin());
   step.timings.resample_ms = ms_since(t0);
   step.next_particles = count_;
 

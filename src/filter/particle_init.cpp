@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "cpu/endpoint_kernel.hpp"
+#include "tsdf_mcl/endpoint_kernel.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/motion_model.hpp"
 
@@ -25,8 +25,9 @@ void GlobalInitOptions::validate() const {
 }
 
 void LocalInitSpread::validate() const {
-  for (const auto& [name, v] : {std::pair{"init_sigma_xy", sigma_xy}, std::pair{"init_sigma_z", sigma_z},
-                                std::pair{"init_sigma_yaw", sigma_yaw}, std::pair{"init_sigma_roll_pitch", sigma_roll_pitch}}) {
+  for (const auto& [name, v] :
+       {std::pair{"init_sigma_xy", sigma_xy}, std::pair{"init_sigma_z", sigma_z},
+        std::pair{"init_sigma_yaw", sigma_yaw}, std::pair{"init_sigma_roll_pitch", sigma_roll_pitch}}) {
     if (!(v >= 0.0) || !std::isfinite(v)) throw Error(std::string(name) + " must be a non-negative number");
   }
 }
@@ -40,6 +41,7 @@ FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& 
   const std::vector<std::uint32_t>& coarse = map.coarse_index();
 
   // One mask per known block, filled in parallel by block rows (each row owns its blocks), compacted after.
+  // The same column walk finds the floors: a free run of voxels starting on a surface.
   std::vector<std::int64_t> slot(coarse.size(), -1);
   std::size_t known = 0;
   for (std::size_t c = 0; c < coarse.size(); ++c) {
@@ -53,39 +55,73 @@ FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& 
   const auto min_h = static_cast<float>(options_.min_height);
   const auto max_h = static_cast<float>(options_.max_height);
   const int z0 = map.min_block().z() * B;
+  // Floors are kept on a lateral lattice no finer than kFloorCell: a 0.05 m map's every column would cost
+  // memory without adding hypotheses that differ.
+  floor_stride_ = std::max(1, static_cast<int>(std::lround(kFloorCell / voxel)));
+  std::vector<std::vector<Floor>> row_floors(static_cast<std::size_t>(dims.y()));
 
 #pragma omp parallel for schedule(dynamic)
   for (int by = 0; by < dims.y(); ++by) {
+    std::vector<Floor>& floors = row_floors[static_cast<std::size_t>(by)];
     for (int bx = 0; bx < dims.x(); ++bx) {
       for (int l = 0; l < B * B; ++l) {
         const int lx = l % B, ly = l / B;
         const int vx = (map.min_block().x() + bx) * B + lx;
         const int vy = (map.min_block().y() + by) * B + ly;
-        float floor_z = -std::numeric_limits<float>::infinity();  // surface height below, from the last voxel inside a surface
+        const bool floor_column = vx % floor_stride_ == 0 && vy % floor_stride_ == 0;
+        float floor_z =
+            -std::numeric_limits<float>::infinity();  // surface height below, from the last voxel inside a surface
+        enum class Last { kUnknown, kSurface, kFree } last = Last::kUnknown;
+        Floor run{vx, vy, 0.0f, 0.0f, false};
+        const auto close_run = [&](float top, bool ceiling) {
+          if (last == Last::kFree && floor_column && std::isfinite(run.z) && top > run.z) {
+            run.top = top;
+            run.ceiling = ceiling;
+            floors.push_back(run);
+          }
+        };
         for (int bz = 0; bz < dims.z(); ++bz) {
-          const std::size_t cell = static_cast<std::size_t>(bx) +
-                                   static_cast<std::size_t>(dims.x()) * (static_cast<std::size_t>(by) + static_cast<std::size_t>(dims.y()) * static_cast<std::size_t>(bz));
-          if (coarse[cell] == TsdfMap::kUnknownBlock) continue;
+          const std::size_t cell =
+              static_cast<std::size_t>(bx) +
+              static_cast<std::size_t>(dims.x()) *
+                  (static_cast<std::size_t>(by) + static_cast<std::size_t>(dims.y()) * static_cast<std::size_t>(bz));
+          if (coarse[cell] == TsdfMap::kUnknownBlock) {
+            close_run(static_cast<float>(z0 + bz * B) * voxel - 0.5f * voxel, false);
+            last = Last::kUnknown;
+            continue;
+          }
           std::array<std::uint64_t, 8>& mask = masks[static_cast<std::size_t>(slot[cell])];
           for (int lz = 0; lz < B; ++lz) {
             const int vz = z0 + bz * B + lz;
             const std::int32_t q = view.fetch(vx, vy, vz);
-            if (q == TsdfMap::kUnknownValue) continue;
-            const float d = static_cast<float>(q) * step;
             const float z = static_cast<float>(vz) * voxel;
-            if (d <= 0.0f) {
-              floor_z = z - d;  // the surface lies |d| above this voxel's centre (normal pointing up)
+            if (q == TsdfMap::kUnknownValue) {
+              close_run(z - 0.5f * voxel, false);
+              last = Last::kUnknown;
               continue;
             }
+            const float d = static_cast<float>(q) * step;
+            if (d <= 0.0f) {
+              close_run(z + d, true);  // a ceiling: its surface lies |d| below this voxel's centre
+              floor_z = z - d;         // the surface lies |d| above this voxel's centre (normal pointing up)
+              last = Last::kSurface;
+              continue;
+            }
+            if (last == Last::kSurface) run.z = floor_z;
+            if (last == Last::kUnknown)
+              run.z = std::numeric_limits<float>::quiet_NaN();  // no floor seen under this run
+            last = Last::kFree;
             if (d < clearance) continue;
             if (band && !(z - floor_z >= min_h && z - floor_z <= max_h)) continue;
             const int local = lx + B * (ly + B * lz);
             mask[static_cast<std::size_t>(local >> 6)] |= 1ull << (local & 63);
           }
         }
+        close_run(static_cast<float>(z0 + dims.z() * B) * voxel - 0.5f * voxel, false);
       }
     }
   }
+  for (const std::vector<Floor>& row : row_floors) floors_.insert(floors_.end(), row.begin(), row.end());
 
   std::uint64_t total = 0;
   for (std::size_t c = 0; c < coarse.size(); ++c) {
@@ -102,16 +138,17 @@ FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& 
     cumulative_.push_back(total);
   }
   if (total == 0) {
-    throw Error("global initialization: the map has no free space that satisfies the constraints (clearance " +
-                std::to_string(options_.min_clearance) + " m" +
-                (band ? ", height band " + std::to_string(min_h) + ".." + std::to_string(max_h) + " m" : std::string()) +
-                ")");
+    throw Error(
+        "global initialization: the map has no free space that satisfies the constraints (clearance " +
+        std::to_string(options_.min_clearance) + " m" +
+        (band ? ", height band " + std::to_string(min_h) + ".." + std::to_string(max_h) + " m" : std::string()) + ")");
   }
 }
 
 Eigen::Vector3f FreeSpaceSampler::sample_position(Rng& rng) const {
   const std::uint64_t k = rng.below(cumulative_.back());
-  const auto b = static_cast<std::size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), k) - cumulative_.begin());
+  const auto b =
+      static_cast<std::size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), k) - cumulative_.begin());
   std::uint64_t rank = k - (b == 0 ? 0 : cumulative_[b - 1]);
   int local = 0;
   for (int word = 0; word < 8; ++word) {
@@ -132,13 +169,51 @@ Eigen::Vector3f FreeSpaceSampler::sample_position(Rng& rng) const {
   return map_->center_of(voxel) + jitter;
 }
 
+template <typename Place>
+bool FreeSpaceSampler::sample_in_run(Rng& rng, Place&& place, Eigen::Vector3f* position) const {
+  if (floors_.empty()) return false;
+  const float voxel = map_->voxel_size();
+  const float cell = static_cast<float>(floor_stride_) * voxel;
+  const kernel::MapView view(*map_);
+  for (int attempt = 0; attempt < 16; ++attempt) {
+    const Floor& f = floors_[rng.below(floors_.size())];
+    const float z = place(f);
+    if (!(z > f.z + 0.5f * voxel && z < f.top - 0.5f * voxel)) continue;  // also NaN: no such height here
+    const Eigen::Vector3f p(static_cast<float>(f.vx) * voxel + static_cast<float>(rng.uniform(-0.5, 0.5)) * cell,
+                            static_cast<float>(f.vy) * voxel + static_cast<float>(rng.uniform(-0.5, 0.5)) * cell, z);
+    // The lateral jitter may leave the column: keep only positions that are free where they land.
+    const Eigen::Vector3i v = map_->voxel_of(p);
+    const std::int32_t q = view.fetch(v.x(), v.y(), v.z());
+    if (q == TsdfMap::kUnknownValue || q <= 0) continue;
+    *position = p;
+    return true;
+  }
+  return false;
+}
+
+bool FreeSpaceSampler::sample_above_floor(Rng& rng, float height, float height_std, Eigen::Vector3f* position) const {
+  return sample_in_run(
+      rng, [&](const Floor& f) { return f.z + height + height_std * static_cast<float>(rng.normal()); }, position);
+}
+
+bool FreeSpaceSampler::sample_below_ceiling(Rng& rng, float depth, float depth_std, Eigen::Vector3f* position) const {
+  return sample_in_run(
+      rng,
+      [&](const Floor& f) {
+        return f.ceiling ? f.top - depth - depth_std * static_cast<float>(rng.normal())
+                         : std::numeric_limits<float>::quiet_NaN();
+      },
+      position);
+}
+
 Eigen::Quaternionf FreeSpaceSampler::sample_rotation(Rng& rng) const {
   if (options_.max_tilt >= kPi) {
     // Shoemake: uniform over the unit quaternions' 3-sphere.
     const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
     const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
-    return Eigen::Quaternionf(static_cast<float>(b * std::cos(2 * kPi * u3)), static_cast<float>(a * std::sin(2 * kPi * u2)),
-                              static_cast<float>(a * std::cos(2 * kPi * u2)), static_cast<float>(b * std::sin(2 * kPi * u3)));
+    return Eigen::Quaternionf(
+        static_cast<float>(b * std::cos(2 * kPi * u3)), static_cast<float>(a * std::sin(2 * kPi * u2)),
+        static_cast<float>(a * std::cos(2 * kPi * u2)), static_cast<float>(b * std::sin(2 * kPi * u3)));
   }
   // The sensor's z axis uniform over the spherical cap (cos of the tilt uniform), then a uniform turn about
   // it: the uniform distribution over SO(3) restricted to the cap.
@@ -146,8 +221,9 @@ Eigen::Quaternionf FreeSpaceSampler::sample_rotation(Rng& rng) const {
   const double tilt = std::acos(std::clamp(cos_tilt, -1.0, 1.0));
   const double azimuth = rng.uniform(0.0, 2 * kPi);
   const double yaw = rng.uniform(-kPi, kPi);
-  const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(azimuth), std::sin(azimuth), 0.0))) *
-                               Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  const Eigen::Quaterniond q =
+      Eigen::Quaterniond(Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(azimuth), std::sin(azimuth), 0.0))) *
+      Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
   return q.cast<float>().normalized();
 }
 

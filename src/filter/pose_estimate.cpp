@@ -14,9 +14,9 @@ namespace {
 constexpr double kTwoPi = 6.283185307179586;
 constexpr std::uint32_t kNoCell = 0xFFFFFFFFu;
 
-std::uint64_t cell_key(const Eigen::Vector4i& c) {
+std::uint64_t cell_key(const PoseEstimator::Cell& c) {
   std::uint64_t key = 0x51ED27A4u;
-  for (int a = 0; a < 4; ++a) key = hash_combine(key, static_cast<std::uint64_t>(static_cast<std::int64_t>(c[a])));
+  for (int a = 0; a < 5; ++a) key = hash_combine(key, static_cast<std::uint64_t>(static_cast<std::int64_t>(c[a])));
   return key | 1u;
 }
 
@@ -34,9 +34,13 @@ void PoseEstimateOptions::validate() const {
   if (!(converged_weight >= 0.0 && converged_weight <= 1.0)) throw Error("converged_weight must lie in [0, 1]");
   if (!(converged_std_xyz > 0.0)) throw Error("converged_std_xyz must be positive");
   if (!(converged_std_angle > 0.0)) throw Error("converged_std_angle must be positive");
+  if (max_hypotheses == 0) throw Error("max_hypotheses must be at least 1");
+  if (!(min_relative_weight >= 0.0 && min_relative_weight < 1.0))
+    throw Error("pose estimate: min_relative_weight must lie in [0, 1)");
 }
 
-Eigen::Quaterniond average_rotation(const std::vector<Eigen::Quaterniond>& rotations, const std::vector<double>& weights) {
+Eigen::Quaterniond average_rotation(const std::vector<Eigen::Quaterniond>& rotations,
+                                    const std::vector<double>& weights) {
   if (rotations.empty() || rotations.size() != weights.size()) {
     throw Error("average_rotation: needs one weight per rotation and at least one rotation");
   }
@@ -65,6 +69,43 @@ std::uint32_t PoseEstimator::find(std::uint32_t a) {
   return a;
 }
 
+namespace {
+
+// Which signed sensor axis points most nearly up (0..5: +x, -x, +y, -y, +z, -z), and the yaw of a sensor axis
+// perpendicular to it: together a rotation's coarse cell for any tilt.
+void rotation_cell(const Eigen::Quaternionf& q, int* up_axis, double* yaw) {
+  const Eigen::Matrix3f r = q.toRotationMatrix();
+  const Eigen::Vector3f up_in_sensor = r.row(2).transpose();  // world z in the sensor frame
+  int axis = 0;
+  float best = -2.0f;
+  for (int a = 0; a < 3; ++a) {
+    for (int s = 0; s < 2; ++s) {
+      const float v = s == 0 ? up_in_sensor[a] : -up_in_sensor[a];
+      if (v > best) {
+        best = v;
+        axis = 2 * a + s;
+      }
+    }
+  }
+  *up_axis = axis;
+  // x for an upright or upside-down sensor (the usual case: the yaw of the heading), else y or z.
+  const int reference = axis >= 4 ? 0 : (axis >= 2 ? 2 : 1);
+  const Eigen::Vector3f ax = r.col(reference);
+  *yaw = std::atan2(ax.y(), ax.x());
+}
+
+double largest_std(const Eigen::Matrix3d& m) {
+  return std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m, Eigen::EigenvaluesOnly).eigenvalues()[2]));
+}
+
+}  // namespace
+
+std::int32_t PoseEstimator::hypothesis_of(std::size_t i) const {
+  if (i >= particle_cell_.size() || particle_cell_[i] == kNoCell) return -1;
+  return root_rank_[parent_[particle_cell_[i]]];
+}
+
 PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, std::size_t n) {
   if (n == 0) throw Error("pose estimate: no particles");
   double w_max = 0.0;
@@ -76,9 +117,9 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     }
   }
   if (!(w_max > 0.0) || !std::isfinite(w_max)) throw Error("pose estimate: no particle has a positive weight");
-  const double threshold = 1e-9 * w_max;
+  const double threshold = options_.min_relative_weight * w_max;
 
-  // Cells of the (x, y, z, yaw) grid.
+  // Cells of the (x, y, z, yaw, up axis) grid.
   std::size_t slots = 16;
   while (slots < 2 * n) slots *= 2;
   if (keys_.size() < slots) {
@@ -87,7 +128,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   }
   slots = keys_.size();
   std::fill(keys_.begin(), keys_.end(), 0u);
-  const auto lookup = [&](const Eigen::Vector4i& c, bool insert) -> std::uint32_t {
+  const auto lookup = [&](const Cell& c, bool insert) -> std::uint32_t {
     const std::uint64_t key = cell_key(c);
     std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
     while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
@@ -101,38 +142,35 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   };
   cells_.clear();
   cell_weight_.clear();
-  particle_cell_.resize(std::max(particle_cell_.size(), n));
+  particle_cell_.assign(n, kNoCell);
   double total = 0.0;
   const float inv_xyz = 1.0f / options_.cluster_bin_xyz;
   for (std::size_t i = 0; i < n; ++i) {
     total += w[i];
-    if (!(w[i] > threshold)) {
-      particle_cell_[i] = kNoCell;
-      continue;
-    }
+    if (!(w[i] > threshold)) continue;
     const Eigen::Vector3f pos = p.position(i);
-    const Eigen::Quaternionf q = p.rotation(i);
-    // Yaw of the sensor's x axis in the world xy plane: defined for any tilt short of pointing straight up.
-    const Eigen::Vector3f ax = q * Eigen::Vector3f::UnitX();
-    const double yaw = std::atan2(ax.y(), ax.x());
+    int up_axis = 0;
+    double yaw = 0.0;
+    rotation_cell(p.rotation(i), &up_axis, &yaw);
     int yc = static_cast<int>(std::floor((yaw + kTwoPi / 2) / kTwoPi * yaw_cells_));
     yc = ((yc % yaw_cells_) + yaw_cells_) % yaw_cells_;
-    const Eigen::Vector4i c(static_cast<int>(std::floor(pos.x() * inv_xyz)), static_cast<int>(std::floor(pos.y() * inv_xyz)),
-                            static_cast<int>(std::floor(pos.z() * inv_xyz)), yc);
+    const Cell c{static_cast<int>(std::floor(pos.x() * inv_xyz)), static_cast<int>(std::floor(pos.y() * inv_xyz)),
+                 static_cast<int>(std::floor(pos.z() * inv_xyz)), yc, up_axis};
     const std::uint32_t cell = lookup(c, true);
     particle_cell_[i] = cell;
     cell_weight_[cell] += w[i];
   }
 
-  // Connected components over face neighbours (one step along one axis; yaw wraps). Each cell looks up the
-  // positive side only: the negative side is the same pairs seen from the other cell. The 80 diagonal
-  // neighbours would join a little more, at ten times the cost, for the 100k cells of a global belief.
+  // Connected components over face neighbours (one step along x, y, z or yaw; yaw wraps; the up axis never
+  // changes within a component). Each cell looks up the positive side only: the negative side is the same
+  // pairs seen from the other cell. The 80 diagonal neighbours would join a little more, at ten times the
+  // cost, for the 100k cells of a global belief.
   const auto cells = static_cast<std::uint32_t>(cells_.size());
   parent_.resize(cells);
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = c;
   for (std::uint32_t c = 0; c < cells; ++c) {
     for (int axis = 0; axis < 4; ++axis) {
-      Eigen::Vector4i nb = cells_[c];
+      Cell nb = cells_[c];
       nb[axis] += 1;
       nb[3] = nb[3] % yaw_cells_;
       const std::uint32_t other = lookup(nb, false);
@@ -144,57 +182,73 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   }
   root_weight_.assign(cells, 0.0);
   PoseEstimate e;
+  std::vector<std::uint32_t> roots;
   for (std::uint32_t c = 0; c < cells; ++c) {
     const std::uint32_t r = find(c);
-    if (r == c) ++e.modes;
+    if (r == c) roots.push_back(c);
     root_weight_[r] += cell_weight_[c];
   }
-  const auto mode = static_cast<std::uint32_t>(std::max_element(root_weight_.begin(), root_weight_.end()) - root_weight_.begin());
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = find(c);  // flat: parent_ is now the root
+  e.modes = roots.size();
+  // The heaviest components become hypotheses (ties: the lower cell, for determinism).
+  const std::size_t k = std::min(options_.max_hypotheses, roots.size());
+  std::partial_sort(roots.begin(), roots.begin() + static_cast<std::ptrdiff_t>(k), roots.end(),
+                    [&](std::uint32_t a, std::uint32_t b) {
+                      return root_weight_[a] > root_weight_[b] || (root_weight_[a] == root_weight_[b] && a < b);
+                    });
+  root_rank_.assign(cells, -1);
+  for (std::size_t r = 0; r < k; ++r) root_rank_[roots[r]] = static_cast<std::int32_t>(r);
+  for (std::size_t r = 0; r < k; ++r) e.hypotheses.push_back(describe(p, w, n, static_cast<std::int32_t>(r), total));
 
-  // The mode's weighted mean.
-  double mode_weight = 0.0;
+  const Hypothesis& top = e.hypotheses.front();
+  e.covariance = top.covariance;
+  e.mode_weight = top.weight;
+  e.mode_particles = top.particles;
+  e.std_position = top.std_position;
+  e.std_rotation = top.std_rotation;
+  e.converged = e.mode_weight >= options_.converged_weight && e.std_position <= options_.converged_std_xyz &&
+                e.std_rotation <= options_.converged_std_angle;
+  e.pose = top.pose;
+  if (options_.best_particle) {
+    e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
+    e.pose.translation() = p.position(best).cast<double>();
+  }
+  return e;
+}
+
+Hypothesis PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::int32_t rank,
+                                   double total) const {
+  Hypothesis h;
+  double weight = 0.0;
   Eigen::Vector3d position_sum = Eigen::Vector3d::Zero();
   Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
-    if (particle_cell_[i] == kNoCell || parent_[particle_cell_[i]] != mode) continue;
+    if (hypothesis_of(i) != rank) continue;
     const Eigen::Quaternionf q = p.rotation(i);
     const Eigen::Vector4d v(q.w(), q.x(), q.y(), q.z());
     m += w[i] * v * v.transpose();
     position_sum += w[i] * p.position(i).cast<double>();
-    mode_weight += w[i];
-    ++e.mode_particles;
+    weight += w[i];
+    ++h.particles;
   }
-  const Eigen::Vector3d mean_position = position_sum / mode_weight;
+  const Eigen::Vector3d mean_position = position_sum / weight;
   const Eigen::Quaterniond mean_rotation = markley_mean(m);
   const Eigen::Quaterniond inverse_mean = mean_rotation.conjugate();
   Matrix6d cov = Matrix6d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
-    if (particle_cell_[i] == kNoCell || parent_[particle_cell_[i]] != mode) continue;
+    if (hypothesis_of(i) != rank) continue;
     Eigen::Matrix<double, 6, 1> d;
     d.head<3>() = p.position(i).cast<double>() - mean_position;
     d.tail<3>() = quaternion_log(inverse_mean * p.rotation(i).cast<double>());
     cov += w[i] * d * d.transpose();
   }
-  e.covariance = cov / mode_weight;
-  e.mode_weight = mode_weight / total;
-  e.std_position = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
-                                               e.covariance.topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly)
-                                               .eigenvalues()[2]));
-  e.std_rotation = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
-                                               e.covariance.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly)
-                                               .eigenvalues()[2]));
-  e.converged = e.mode_weight >= options_.converged_weight && e.std_position <= options_.converged_std_xyz &&
-                e.std_rotation <= options_.converged_std_angle;
-  e.pose = Pose::Identity();
-  if (options_.best_particle) {
-    e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
-    e.pose.translation() = p.position(best).cast<double>();
-  } else {
-    e.pose.linear() = mean_rotation.toRotationMatrix();
-    e.pose.translation() = mean_position;
-  }
-  return e;
+  h.covariance = cov / weight;
+  h.weight = weight / total;
+  h.std_position = largest_std(h.covariance.topLeftCorner<3, 3>());
+  h.std_rotation = largest_std(h.covariance.bottomRightCorner<3, 3>());
+  h.pose.linear() = mean_rotation.toRotationMatrix();
+  h.pose.translation() = mean_position;
+  return h;
 }
 
 }  // namespace tsdf_mcl

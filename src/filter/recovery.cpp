@@ -19,8 +19,12 @@ RecoveryMonitor::RecoveryMonitor(double alpha_slow, double alpha_fast, double ma
 
 double RecoveryMonitor::update(double fit) {
   if (!enabled() || !(fit >= 0.0) || !std::isfinite(fit)) return 0.0;
-  w_slow_ = w_slow_ == 0.0 ? fit : w_slow_ + alpha_slow_ * (fit - w_slow_);
-  w_fast_ = w_fast_ == 0.0 ? fit : w_fast_ + alpha_fast_ * (fit - w_fast_);
+  // Until 1/alpha samples have come, an average is the plain mean of those seen: started at the first sample
+  // with the rate alpha, w_slow would remember one lucky first fit for a hundred updates.
+  ++samples_;
+  const double n = static_cast<double>(samples_);
+  w_slow_ += std::max(alpha_slow_, 1.0 / n) * (fit - w_slow_);
+  w_fast_ += std::max(alpha_fast_, 1.0 / n) * (fit - w_fast_);
   if (!(w_slow_ > 0.0)) return 0.0;
   return std::clamp(1.0 - w_fast_ / (w_slow_ * (1.0 - margin_)), 0.0, 1.0);
 }

@@ -40,12 +40,13 @@ void multinomial(Weight weight, std::size_t n, double sum, std::size_t count, Rn
   double total = 0.0;
   for (std::size_t j = 0; j <= count; ++j) total -= std::log(1.0 - rng.uniform());
   double partial = 0.0;
-  walk(weight, n, sum, count,
-       [&](std::size_t) {
-         partial -= std::log(1.0 - replay.uniform());
-         return partial / total;
-       },
-       out);
+  walk(
+      weight, n, sum, count,
+      [&](std::size_t) {
+        partial -= std::log(1.0 - replay.uniform());
+        return partial / total;
+      },
+      out);
 }
 
 }  // namespace
@@ -59,9 +60,12 @@ ResamplingMethod parse_resampling_method(const std::string& name) {
 
 std::string to_string(ResamplingMethod method) {
   switch (method) {
-    case ResamplingMethod::kSystematic: return "systematic";
-    case ResamplingMethod::kResidual: return "residual";
-    case ResamplingMethod::kMultinomial: return "multinomial";
+    case ResamplingMethod::kSystematic:
+      return "systematic";
+    case ResamplingMethod::kResidual:
+      return "residual";
+    case ResamplingMethod::kMultinomial:
+      return "multinomial";
   }
   return "?";
 }
@@ -76,7 +80,8 @@ void resample(ResamplingMethod method, const double* w, std::size_t n, std::size
     case ResamplingMethod::kSystematic: {
       const double offset = rng.uniform();
       const double step = 1.0 / static_cast<double>(count);
-      walk(weight, n, sum, count, [&](std::size_t j) { return (static_cast<double>(j) + offset) * step; }, out);
+      walk(
+          weight, n, sum, count, [&](std::size_t j) { return (static_cast<double>(j) + offset) * step; }, out);
       return;
     }
     case ResamplingMethod::kMultinomial:
@@ -114,6 +119,33 @@ double effective_sample_size(const double* w, std::size_t n) {
     sum2 += w[i] * w[i];
   }
   return sum2 > 0.0 ? sum * sum / sum2 : 0.0;
+}
+
+void GroupResampler::resample(ResamplingMethod method, const double* w, const std::int32_t* group, std::size_t n,
+                              const std::vector<std::size_t>& counts, Rng& rng, std::uint32_t* ancestors) {
+  const std::size_t groups = counts.size();
+  begin_.assign(groups + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (group[i] < 0 || static_cast<std::size_t>(group[i]) >= groups)
+      throw Error("resampling: bad group of particle " + std::to_string(i));
+    ++begin_[static_cast<std::size_t>(group[i]) + 1];
+  }
+  for (std::size_t g = 0; g < groups; ++g) begin_[g + 1] += begin_[g];
+  members_.resize(n);
+  std::vector<std::size_t> next(begin_.begin(), begin_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    members_[next[static_cast<std::size_t>(group[i])]++] = static_cast<std::uint32_t>(i);
+  std::size_t out = 0;
+  for (std::size_t g = 0; g < groups; ++g) {
+    const std::size_t size = begin_[g + 1] - begin_[g];
+    if (counts[g] == 0) continue;
+    if (size == 0) throw Error("resampling: group " + std::to_string(g) + " has no particles to draw from");
+    weights_.resize(size);
+    for (std::size_t k = 0; k < size; ++k) weights_[k] = w[members_[begin_[g] + k]];
+    local_.resize(counts[g]);
+    tsdf_mcl::resample(method, weights_.data(), size, counts[g], rng, local_.data());
+    for (std::size_t k = 0; k < counts[g]; ++k) ancestors[out++] = members_[begin_[g] + local_[k]];
+  }
 }
 
 }  // namespace tsdf_mcl

@@ -65,9 +65,9 @@ const std::vector<Eigen::Vector3f>& ScanPreprocessor::process(const std::vector<
   if (thin) {
     // Sorting by (key, index) makes the kept point of each voxel its first one in scan order.
     std::sort(keyed_.begin(), keyed_.end());
-    keyed_.erase(std::unique(keyed_.begin(), keyed_.end(),
-                             [](const auto& a, const auto& b) { return a.first == b.first; }),
-                 keyed_.end());
+    keyed_.erase(
+        std::unique(keyed_.begin(), keyed_.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+        keyed_.end());
   }
   const std::size_t thinned = keyed_.size();
 

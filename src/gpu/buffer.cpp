@@ -1,4 +1,4 @@
-#include "gpu/buffer.hpp"
+#include "buffer.hpp"
 
 #include <cstring>
 #include <utility>
@@ -23,12 +23,15 @@ Buffer::Buffer(const VulkanContext& ctx, VkDeviceSize size, Use use, VkBufferUsa
     bool ok;
     if (use == Use::kHostShared) {
       // Unified memory (Jetson, lavapipe) has a type that is all three; elsewhere host-visible system memory.
-      ok = ctx.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                ctx.caps().unified_memory ? VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT : VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
-                                &type, &flags);
+      ok = ctx.find_memory_type(
+          req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+          ctx.caps().unified_memory ? VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, &type,
+          &flags);
     } else {
       ok = ctx.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
-                                ctx.caps().unified_memory ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT : 0,
+                                ctx.caps().unified_memory
+                                    ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                                    : 0,
                                 &type, &flags) ||
            ctx.find_memory_type(req.memoryTypeBits, 0, 0, &type, &flags);
     }
@@ -39,7 +42,8 @@ Buffer::Buffer(const VulkanContext& ctx, VkDeviceSize size, Use use, VkBufferUsa
     check(vkAllocateMemory(device_, &alloc, nullptr, &memory_), "vkAllocateMemory");
     check(vkBindBufferMemory(device_, buffer_, memory_, 0), "vkBindBufferMemory");
     coherent_ = (flags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) != 0;
-    if (flags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) check(vkMapMemory(device_, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_), "vkMapMemory");
+    if (flags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)
+      check(vkMapMemory(device_, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_), "vkMapMemory");
   } catch (...) {
     release();
     throw;

@@ -1,7 +1,7 @@
 #pragma once
 #include <cstdint>
 
-#include "gpu/vulkan_context.hpp"
+#include "vulkan_context.hpp"
 
 namespace tsdf_mcl::gpu {
 

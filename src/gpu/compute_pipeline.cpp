@@ -1,9 +1,10 @@
-#include "gpu/compute_pipeline.hpp"
+#include "compute_pipeline.hpp"
 
 namespace tsdf_mcl::gpu {
 
-ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code, const std::vector<VkDescriptorType>& bindings,
-                                 std::uint32_t push_constant_bytes, const std::vector<std::uint32_t>& specialization)
+ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code,
+                                 const std::vector<VkDescriptorType>& bindings, std::uint32_t push_constant_bytes,
+                                 const std::vector<std::uint32_t>& specialization)
     : device_(ctx.device()), bindings_(static_cast<std::uint32_t>(bindings.size())) {
   VkShaderModule module = VK_NULL_HANDLE;
   try {

@@ -2,7 +2,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "gpu/vulkan_context.hpp"
+#include "vulkan_context.hpp"
 
 namespace tsdf_mcl::gpu {
 

@@ -1,4 +1,4 @@
-#include "gpu/vulkan_context.hpp"
+#include "vulkan_context.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -12,21 +12,36 @@ namespace tsdf_mcl::gpu {
 
 const char* result_name(VkResult r) {
   switch (r) {
-    case VK_SUCCESS: return "VK_SUCCESS";
-    case VK_NOT_READY: return "VK_NOT_READY";
-    case VK_TIMEOUT: return "VK_TIMEOUT";
-    case VK_INCOMPLETE: return "VK_INCOMPLETE";
-    case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
-    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
-    case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
-    case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
-    case VK_ERROR_MEMORY_MAP_FAILED: return "VK_ERROR_MEMORY_MAP_FAILED";
-    case VK_ERROR_LAYER_NOT_PRESENT: return "VK_ERROR_LAYER_NOT_PRESENT";
-    case VK_ERROR_EXTENSION_NOT_PRESENT: return "VK_ERROR_EXTENSION_NOT_PRESENT";
-    case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
-    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER";
-    case VK_ERROR_TOO_MANY_OBJECTS: return "VK_ERROR_TOO_MANY_OBJECTS";
-    default: return "VkResult error";
+    case VK_SUCCESS:
+      return "VK_SUCCESS";
+    case VK_NOT_READY:
+      return "VK_NOT_READY";
+    case VK_TIMEOUT:
+      return "VK_TIMEOUT";
+    case VK_INCOMPLETE:
+      return "VK_INCOMPLETE";
+    case VK_ERROR_OUT_OF_HOST_MEMORY:
+      return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY:
+      return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED:
+      return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST:
+      return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_MEMORY_MAP_FAILED:
+      return "VK_ERROR_MEMORY_MAP_FAILED";
+    case VK_ERROR_LAYER_NOT_PRESENT:
+      return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT:
+      return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_FEATURE_NOT_PRESENT:
+      return "VK_ERROR_FEATURE_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER:
+      return "VK_ERROR_INCOMPATIBLE_DRIVER";
+    case VK_ERROR_TOO_MANY_OBJECTS:
+      return "VK_ERROR_TOO_MANY_OBJECTS";
+    default:
+      return "VkResult error";
   }
 }
 
@@ -46,7 +61,8 @@ bool has_layer(const char* name) {
   vkEnumerateInstanceLayerProperties(&n, nullptr);
   std::vector<VkLayerProperties> layers(n);
   vkEnumerateInstanceLayerProperties(&n, layers.data());
-  return std::any_of(layers.begin(), layers.end(), [&](const VkLayerProperties& l) { return !std::strcmp(l.layerName, name); });
+  return std::any_of(layers.begin(), layers.end(),
+                     [&](const VkLayerProperties& l) { return !std::strcmp(l.layerName, name); });
 }
 
 bool has_instance_extension(const char* name) {
@@ -54,16 +70,22 @@ bool has_instance_extension(const char* name) {
   vkEnumerateInstanceExtensionProperties(nullptr, &n, nullptr);
   std::vector<VkExtensionProperties> exts(n);
   vkEnumerateInstanceExtensionProperties(nullptr, &n, exts.data());
-  return std::any_of(exts.begin(), exts.end(), [&](const VkExtensionProperties& e) { return !std::strcmp(e.extensionName, name); });
+  return std::any_of(exts.begin(), exts.end(),
+                     [&](const VkExtensionProperties& e) { return !std::strcmp(e.extensionName, name); });
 }
 
 int type_rank(VkPhysicalDeviceType t) {
   switch (t) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
-    default: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return 3;
+    default:
+      return 4;
   }
 }
 
@@ -97,7 +119,8 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
   std::vector<const char*> extensions;
   if (validation) {
     if (!has_layer("VK_LAYER_KHRONOS_validation")) {
-      throw Error("Vulkan validation requested but VK_LAYER_KHRONOS_validation is not installed (vulkan-validationlayers)");
+      throw Error(
+          "Vulkan validation requested but VK_LAYER_KHRONOS_validation is not installed (vulkan-validationlayers)");
     }
     if (!has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME)) {
       throw Error("Vulkan validation requested but " VK_EXT_DEBUG_UTILS_EXTENSION_NAME " is missing");
@@ -128,13 +151,15 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
   info.ppEnabledExtensionNames = extensions.data();
   if (validation) info.pNext = &features;
   const VkResult created = vkCreateInstance(&info, nullptr, &instance_);
-  if (created == VK_ERROR_INCOMPATIBLE_DRIVER) throw Error("no Vulkan driver found (install mesa-vulkan-drivers for lavapipe)");
+  if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
+    throw Error("no Vulkan driver found (install mesa-vulkan-drivers for lavapipe)");
   check(created, "vkCreateInstance");
 
   if (validation) {
     auto create_messenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
         vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
-    if (create_messenger) check(create_messenger(instance_, &messenger_info, nullptr, &messenger_), "vkCreateDebugUtilsMessengerEXT");
+    if (create_messenger)
+      check(create_messenger(instance_, &messenger_info, nullptr, &messenger_), "vkCreateDebugUtilsMessengerEXT");
   }
 
   try {
@@ -168,7 +193,8 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
     props2.pNext = &subgroup;
     vkGetPhysicalDeviceProperties2(physical_, &props2);
     const VkPhysicalDeviceProperties& p = props2.properties;
-    if (p.apiVersion < VK_API_VERSION_1_2) throw Error(std::string("Vulkan device ") + p.deviceName + " is older than Vulkan 1.2");
+    if (p.apiVersion < VK_API_VERSION_1_2)
+      throw Error(std::string("Vulkan device ") + p.deviceName + " is older than Vulkan 1.2");
     caps_.name = p.deviceName;
     caps_.api_version = p.apiVersion;
     caps_.type = p.deviceType;
@@ -210,7 +236,8 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
                                           VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     // Discrete GPUs with resizable BAR also expose such a type, but only as a small window of VRAM; treat
     // memory as unified only where the device says it is integrated or on the CPU.
-    const bool integrated = caps_.type == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU || caps_.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    const bool integrated =
+        caps_.type == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU || caps_.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
     for (std::uint32_t i = 0; i < memory_.memoryTypeCount && integrated; ++i) {
       if ((memory_.memoryTypes[i].propertyFlags & unified) == unified) caps_.unified_memory = true;
     }

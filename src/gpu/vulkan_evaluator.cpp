@@ -1,4 +1,4 @@
-#include "gpu/vulkan_evaluator.hpp"
+#include "tsdf_mcl/vulkan_evaluator.hpp"
 
 #include <algorithm>
 #include <array>
@@ -8,13 +8,14 @@
 #include <map>
 #include <memory>
 
-#include "cpu/endpoint_kernel.hpp"
-#include "cpu/weight_reduction.hpp"
-#include "gpu/buffer.hpp"
-#include "gpu/compute_pipeline.hpp"
-#include "gpu/push_constants.hpp"
-#include "gpu/vulkan_context.hpp"
+#include "buffer.hpp"
+#include "compute_pipeline.hpp"
+#include "push_constants.hpp"
+#include "shader_interface.h"
+#include "tsdf_mcl/endpoint_kernel.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/weight_reduction.hpp"
+#include "vulkan_context.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -36,16 +37,25 @@ constexpr std::uint32_t kEndpointWorkgroup = 64;
 constexpr std::uint32_t kReduceWorkgroup = 256;
 constexpr std::uint32_t kReduceItems = 4;
 constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
-// particles, points, coarse, pool0..3, points as a uniform buffer, texel views of coarse and pool0..3
-constexpr std::uint32_t kEndpointBindings = 13;
-constexpr std::uint32_t kMaxPoolChunks = 4;
-constexpr std::uint32_t kStorageBindings = 7;
-constexpr std::uint32_t kCoarseTexelBinding = 8;
-constexpr std::uint32_t kTexelBindings = 1 + kMaxPoolChunks;
-constexpr std::uint32_t kReduceBindings = 3;    // particles, records in, records out
-constexpr std::uint32_t kQueries = 3;           // before weighting, after weighting, after reduction
-constexpr std::size_t kParticleArrays = 8;      // x y z qw qx qy qz log_weight
-constexpr std::uint32_t kPointsUniformBinding = 7;
+constexpr std::uint32_t kNearestBatch = 4;  // points whose map reads the shader issues together (fastest measured)
+// Bindings and specialization constants by name (shader_interface.h, shared with the shaders).
+constexpr std::uint32_t kEndpointBindings = EW_BINDINGS;
+constexpr std::uint32_t kMaxPoolChunks = EW_MAX_POOL_CHUNKS;
+constexpr std::uint32_t kStorageBindings = EW_BINDING_POOL0 + EW_MAX_POOL_CHUNKS;  // particles, points, coarse, pool
+constexpr std::uint32_t kTexelBindings = 1 + kMaxPoolChunks;                       // coarse and pool views
+constexpr std::uint32_t kReduceBindings = RD_BINDINGS;
+constexpr std::uint32_t kQueries = 3;       // before weighting, after weighting, after reduction
+constexpr std::size_t kParticleArrays = 8;  // x y z qw qx qy qz log_weight
+static_assert(EW_BINDING_POOL_VIEW0 == EW_BINDING_COARSE_VIEW + 1 &&
+                  EW_BINDINGS == EW_BINDING_POOL_VIEW0 + EW_MAX_POOL_CHUNKS,
+              "the texel views follow each other: coarse, then the pool chunks");
+
+std::vector<std::uint32_t> reduce_specialization() {
+  std::vector<std::uint32_t> spec(RD_SPEC_COUNT);  // entry i is the constant with id i
+  spec[RD_SPEC_WORKGROUP] = kReduceWorkgroup;
+  spec[RD_SPEC_ITEMS_PER_THREAD] = kReduceItems;
+  return spec;
+}
 
 std::uint32_t groups_for(std::size_t n, std::uint32_t per_group) {
   return static_cast<std::uint32_t>((n + per_group - 1) / per_group);
@@ -155,7 +165,8 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     if (options.max_map_binding_bytes > 0) range = std::min(range, options.max_map_binding_bytes);
     const std::uint64_t coarse_bytes = map.coarse_index().size() * sizeof(std::uint32_t);
     if (coarse_bytes > range) {
-      throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) + " MiB) exceeds the device's storage buffer range");
+      throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) +
+                  " MiB) exceeds the device's storage buffer range");
     }
     const std::uint64_t block_bytes = TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
     chunk_shift_ = 0;
@@ -165,8 +176,8 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     const std::size_t chunks = std::max<std::size_t>(1, (blocks + blocks_per_chunk - 1) / blocks_per_chunk);
     if (chunks > kMaxPoolChunks) {
       throw Error("map block pool (" + std::to_string(blocks * block_bytes >> 20) + " MiB) exceeds " +
-                  std::to_string(kMaxPoolChunks) + " storage buffers of " + std::to_string((blocks_per_chunk * block_bytes) >> 20) +
-                  " MiB on this device");
+                  std::to_string(kMaxPoolChunks) + " storage buffers of " +
+                  std::to_string((blocks_per_chunk * block_bytes) >> 20) + " MiB on this device");
     }
     const std::uint64_t max_texels = std::uint64_t{caps.max_texel_buffer_elements} * sizeof(std::uint32_t);
     if (coarse_bytes > max_texels || (block_bytes << chunk_shift_) > max_texels) map_texel_views_ = false;
@@ -178,8 +189,8 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
       const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
       const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
       pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
-      gpu::upload(*ctx_, command_pool_, pool_chunks_.back(),
-                  map.block_pool().data() + first * TsdfMap::kWordsPerBlock, count * block_bytes);
+      gpu::upload(*ctx_, command_pool_, pool_chunks_.back(), map.block_pool().data() + first * TsdfMap::kWordsPerBlock,
+                  count * block_bytes);
     }
     // The views are bound even when the storage bindings are read (the layout has both): they cost nothing.
     coarse_view_ = gpu::TexelView(*ctx_, coarse_);
@@ -187,10 +198,11 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
 
     reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
         *ctx_,
-        caps.subgroup_arithmetic && options.subgroup_reduction ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
-                                 : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
+        caps.subgroup_arithmetic && options.subgroup_reduction
+            ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
+            : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
         std::vector<VkDescriptorType>(kReduceBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
-        sizeof(gpu::ReducePushConstants), std::vector<std::uint32_t>{kReduceWorkgroup, kReduceItems});
+        sizeof(gpu::ReducePushConstants), reduce_specialization());
     // Created here rather than on first use so that the first update is not slowed by a pipeline compile.
     EndpointModel default_model;
     endpoint_pipeline(default_model, uniform_point_capacity_ > 0);
@@ -258,7 +270,6 @@ void VulkanEvaluator::release() {
   points_staging_ = {};
 }
 
-
 void VulkanEvaluator::check_validation() const {
   if (notify_validation_ && ctx_->validation_errors() > 0) {
     throw Error("Vulkan validation reported: " + ctx_->last_validation_message());
@@ -273,15 +284,23 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
   auto& slot = endpoint_pipelines_[key];
   if (!slot) {
     std::vector<VkDescriptorType> bindings(kEndpointBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
-    bindings[kPointsUniformBinding] = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-    for (std::uint32_t b = 0; b < kTexelBindings; ++b) bindings[kCoarseTexelBinding + b] = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
-    slot = std::make_unique<gpu::ComputePipeline>(
-        *ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)}, bindings,
-        sizeof(gpu::EndpointPushConstants),
-        std::vector<std::uint32_t>{kEndpointWorkgroup, interpolation, likelihood, chunk_shift_,
-                                   static_cast<std::uint32_t>(pool_chunks_.size()), uniform,
-                                   static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1)),
-                                   map_texel_views_ ? 1u : 0u});
+    bindings[EW_BINDING_UNIFORM_POINTS] = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    for (std::uint32_t b = 0; b < kTexelBindings; ++b)
+      bindings[EW_BINDING_COARSE_VIEW + b] = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+    // Entry i of the vector is the constant with id i (compute_pipeline.hpp).
+    std::vector<std::uint32_t> spec(EW_SPEC_COUNT);
+    spec[EW_SPEC_WORKGROUP] = kEndpointWorkgroup;
+    spec[EW_SPEC_INTERPOLATION] = interpolation;
+    spec[EW_SPEC_LIKELIHOOD] = likelihood;
+    spec[EW_SPEC_CHUNK_SHIFT] = chunk_shift_;
+    spec[EW_SPEC_POOL_CHUNKS] = static_cast<std::uint32_t>(pool_chunks_.size());
+    spec[EW_SPEC_UNIFORM_POINTS] = uniform;
+    spec[EW_SPEC_UNIFORM_POINT_CAPACITY] =
+        static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1));
+    spec[EW_SPEC_MAP_TEXEL_VIEWS] = map_texel_views_ ? 1u : 0u;
+    spec[EW_SPEC_BATCH] = kNearestBatch;
+    slot = std::make_unique<gpu::ComputePipeline>(*ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)},
+                                                  bindings, sizeof(gpu::EndpointPushConstants), spec);
   }
   return *slot;
 }
@@ -355,9 +374,9 @@ void VulkanEvaluator::write_descriptor_sets() {
   infos.reserve(2 * kEndpointBindings + 6 * kReduceBindings);  // no reallocation: writes point into it
   auto bind = [&](VkDescriptorSet set, std::uint32_t binding, const gpu::Buffer& buffer,
                   VkDescriptorType type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
-    const VkDeviceSize range =
-        type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER ? std::max<std::size_t>(uniform_point_capacity_, 1) * 4 * sizeof(float)
-                                                  : VK_WHOLE_SIZE;
+    const VkDeviceSize range = type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                   ? std::max<std::size_t>(uniform_point_capacity_, 1) * 4 * sizeof(float)
+                                   : VK_WHOLE_SIZE;
     infos.push_back({buffer.handle(), 0, range});
     VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     w.dstSet = set;
@@ -368,34 +387,34 @@ void VulkanEvaluator::write_descriptor_sets() {
     writes.push_back(w);
   };
   for (int s = 0; s < 2; ++s) {
-    bind(endpoint_sets_[s], 0, particle_sets_[s]);
-    bind(endpoint_sets_[s], 1, points_);
-    bind(endpoint_sets_[s], 2, coarse_);
+    bind(endpoint_sets_[s], EW_BINDING_PARTICLES, particle_sets_[s]);
+    bind(endpoint_sets_[s], EW_BINDING_POINTS, points_);
+    bind(endpoint_sets_[s], EW_BINDING_COARSE, coarse_);
     // Unused pool bindings repeat the first chunk: they must be valid but are never read.
     for (std::uint32_t c = 0; c < kMaxPoolChunks; ++c) {
-      bind(endpoint_sets_[s], 3 + c, pool_chunks_[c < pool_chunks_.size() ? c : 0]);
+      bind(endpoint_sets_[s], EW_BINDING_POOL0 + c, pool_chunks_[c < pool_chunks_.size() ? c : 0]);
     }
-    bind(endpoint_sets_[s], kPointsUniformBinding, points_, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    bind(endpoint_sets_[s], EW_BINDING_UNIFORM_POINTS, points_, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
     for (std::uint32_t b = 0; b < kTexelBindings; ++b) {
       // Like the storage bindings, unused pool views repeat the first chunk's.
       const gpu::TexelView& v = b == 0 ? coarse_view_ : pool_views_[b - 1 < pool_views_.size() ? b - 1 : 0];
       VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
       w.dstSet = endpoint_sets_[s];
-      w.dstBinding = kCoarseTexelBinding + b;
+      w.dstBinding = EW_BINDING_COARSE_VIEW + b;
       w.descriptorCount = 1;
       w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
       w.pTexelBufferView = &v.handle();
       writes.push_back(w);
     }
-    bind(reduce_sets_[s][0], 0, particle_sets_[s]);
-    bind(reduce_sets_[s][0], 1, records_[1]);
-    bind(reduce_sets_[s][0], 2, records_[0]);
-    bind(reduce_sets_[s][1], 0, particle_sets_[s]);
-    bind(reduce_sets_[s][1], 1, records_[0]);
-    bind(reduce_sets_[s][1], 2, records_[1]);
-    bind(reduce_sets_[s][2], 0, particle_sets_[s]);
-    bind(reduce_sets_[s][2], 1, records_[1]);
-    bind(reduce_sets_[s][2], 2, records_[0]);
+    bind(reduce_sets_[s][0], RD_BINDING_PARTICLES, particle_sets_[s]);
+    bind(reduce_sets_[s][0], RD_BINDING_RECORDS_IN, records_[1]);
+    bind(reduce_sets_[s][0], RD_BINDING_RECORDS_OUT, records_[0]);
+    bind(reduce_sets_[s][1], RD_BINDING_PARTICLES, particle_sets_[s]);
+    bind(reduce_sets_[s][1], RD_BINDING_RECORDS_IN, records_[0]);
+    bind(reduce_sets_[s][1], RD_BINDING_RECORDS_OUT, records_[1]);
+    bind(reduce_sets_[s][2], RD_BINDING_PARTICLES, particle_sets_[s]);
+    bind(reduce_sets_[s][2], RD_BINDING_RECORDS_IN, records_[1]);
+    bind(reduce_sets_[s][2], RD_BINDING_RECORDS_OUT, records_[0]);
   }
   vkUpdateDescriptorSets(ctx_->device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
@@ -452,7 +471,8 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   ep.hit_scale = k.hit_scale;
   ep.neg_inv_2s2 = k.neg_inv_2s2;
   ep.p_rand = k.p_rand;
-  ep.log_p_rand = k.log_p_rand;
+  ep.p_unknown = k.p_unknown;
+  ep.log_p_unknown = k.log_p_unknown;
   ep.weight_exponent = model.weight_exponent;
 
   gpu::check(vkResetCommandBuffer(cmd_, 0), "vkResetCommandBuffer");
@@ -468,7 +488,8 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   }
   if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 0);
   vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.pipeline());
-  vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0, nullptr);
+  vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0,
+                          nullptr);
   vkCmdPushConstants(cmd_, endpoint.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ep), &ep);
   vkCmdDispatch(cmd_, groups_for(n, kEndpointWorkgroup), 1, 1);
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
@@ -480,10 +501,8 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   rp.capacity = static_cast<std::uint32_t>(capacity_);
   rp.fit_scale = fit.scale;
   rp.fit_offset = fit.offset;
-  rp.reference[0] = reference_rotation.w();
-  rp.reference[1] = reference_rotation.x();
-  rp.reference[2] = reference_rotation.y();
-  rp.reference[3] = reference_rotation.z();
+  rp.reference =
+      glm::vec4(reference_rotation.w(), reference_rotation.x(), reference_rotation.y(), reference_rotation.z());
   vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, reduce_pipeline_->pipeline());
   std::size_t count = n;
   int out = 0;  // records_[out] receives this level's records
@@ -528,8 +547,8 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
 
   if (queries_) {
     std::uint64_t stamps[kQueries];
-    gpu::check(vkGetQueryPoolResults(ctx_->device(), queries_, 0, kQueries, sizeof(stamps), stamps, sizeof(std::uint64_t),
-                                     VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+    gpu::check(vkGetQueryPoolResults(ctx_->device(), queries_, 0, kQueries, sizeof(stamps), stamps,
+                                     sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                "vkGetQueryPoolResults");
     const std::uint64_t mask = ctx_->caps().timestamp_mask;
     const double ns = ctx_->caps().timestamp_period_ns;

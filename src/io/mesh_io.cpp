@@ -10,12 +10,22 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "io/little_endian.hpp"
+#include "tsdf_mcl/little_endian.hpp"
+#include "ply_format.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/input_file.hpp"
+#include "tsdf_mcl/limits.hpp"
 #include "tsdf_mcl/mesh.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;
+using io::ply_size;
+using io::PlyElement;
+using io::PlyFormat;
+using io::PlyHeader;
+using io::PlyProperty;
+using io::PlyType;
 
 void TriangleMesh::append(const TriangleMesh& other) {
   const int offset = static_cast<int>(vertices.size());
@@ -41,17 +51,8 @@ Eigen::Vector3f TriangleMesh::max_corner() const {
 namespace {
 
 std::string read_whole_file(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::exists(file, ec)) throw Error("mesh " + file.string() + " does not exist");
-  if (fs::is_directory(file, ec)) throw Error("mesh " + file.string() + " is a directory, not a file");
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in) throw Error("cannot open mesh " + file.string());
-  const std::streamoff size = in.tellg();
-  if (size <= 0) throw Error(file.string() + ": empty file");
-  std::string data(static_cast<std::size_t>(size), '\0');
-  in.seekg(0);
-  in.read(data.data(), size);
-  if (in.gcount() != size) throw Error("cannot read mesh " + file.string());
+  std::string data = read_input_file(file, "mesh", limits::kMaxMeshFileBytes);
+  if (data.empty()) throw Error(file.string() + ": empty file");
   return data;
 }
 
@@ -93,7 +94,9 @@ class Tokens {
   std::size_t line_ = 1;
 };
 
-std::string at_line(const fs::path& file, std::size_t line) { return file.string() + ":" + std::to_string(line) + ": "; }
+std::string at_line(const fs::path& file, std::size_t line) {
+  return file.string() + ":" + std::to_string(line) + ": ";
+}
 
 void check_finite(const Eigen::Vector3f& v, const fs::path& file, const std::string& where) {
   if (!v.allFinite()) throw Error(file.string() + ": non-finite vertex coordinate (" + where + ")");
@@ -156,9 +159,12 @@ TriangleMesh parse_ascii_stl(const std::string& data, const fs::path& file) {
   tokens.skip_line();  // the solid's name may contain spaces
   auto expect = [&](std::string_view word) {
     const std::string_view got = tokens.next();
-    if (got.empty()) throw Error(at_line(file, tokens.line()) + "ASCII STL ends early (truncated): expected '" + std::string(word) + "'");
+    if (got.empty())
+      throw Error(at_line(file, tokens.line()) + "ASCII STL ends early (truncated): expected '" + std::string(word) +
+                  "'");
     if (got != word) {
-      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected '" + std::string(word) + "', got '" + std::string(got) + "'");
+      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected '" + std::string(word) + "', got '" +
+                  std::string(got) + "'");
     }
   };
   auto number = [&]() {
@@ -166,7 +172,8 @@ TriangleMesh parse_ascii_stl(const std::string& data, const fs::path& file) {
     double value = 0.0;
     if (got.empty()) throw Error(at_line(file, tokens.line()) + "ASCII STL ends early (truncated) inside a facet");
     if (!parse_number(got, value)) {
-      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected a number, got '" + std::string(got) + "'");
+      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected a number, got '" + std::string(got) +
+                  "'");
     }
     return static_cast<float>(value);
   };
@@ -184,7 +191,8 @@ TriangleMesh parse_ascii_stl(const std::string& data, const fs::path& file) {
       continue;
     }
     if (word != "facet" || ended) {
-      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected 'facet', got '" + std::string(word) + "'");
+      throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected 'facet', got '" + std::string(word) +
+                  "'");
     }
     expect("normal");
     for (int k = 0; k < 3; ++k) number();
@@ -194,7 +202,8 @@ TriangleMesh parse_ascii_stl(const std::string& data, const fs::path& file) {
     for (std::string_view v = tokens.next(); v != "endloop"; v = tokens.next()) {
       if (v.empty()) throw Error(at_line(file, tokens.line()) + "ASCII STL ends early (truncated) inside a facet");
       if (v != "vertex") {
-        throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected 'vertex', got '" + std::string(v) + "'");
+        throw Error(at_line(file, tokens.line()) + "malformed ASCII STL: expected 'vertex', got '" + std::string(v) +
+                    "'");
       }
       // Separate statements: the order in which function arguments are evaluated is unspecified.
       const float x = number();
@@ -223,7 +232,8 @@ TriangleMesh parse_stl(const std::string& data, const fs::path& file) {
   while (first < data.size() && is_space(data[first])) ++first;
   if (data.compare(first, 5, "solid") == 0) return parse_ascii_stl(data, file);
   if (data.size() < 84) {
-    throw Error(file.string() + ": " + std::to_string(data.size()) + " bytes is too short for a binary STL (84-byte header) and the file is not ASCII STL");
+    throw Error(file.string() + ": " + std::to_string(data.size()) +
+                " bytes is too short for a binary STL (84-byte header) and the file is not ASCII STL");
   }
   const std::size_t count = io::load<std::uint32_t>(reinterpret_cast<const unsigned char*>(data.data()) + 80, true);
   throw Error(file.string() + ": binary STL header says " + std::to_string(count) + " triangles (" +
@@ -232,54 +242,6 @@ TriangleMesh parse_stl(const std::string& data, const fs::path& file) {
 }
 
 // ---------------------------------------------------------------------------------------------------- PLY
-
-enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
-
-bool ply_type_of(std::string_view name, PlyType& type) {
-  static const std::pair<std::string_view, PlyType> kNames[] = {
-      {"char", PlyType::kInt8},     {"int8", PlyType::kInt8},      {"uchar", PlyType::kUInt8},
-      {"uint8", PlyType::kUInt8},   {"short", PlyType::kInt16},    {"int16", PlyType::kInt16},
-      {"ushort", PlyType::kUInt16}, {"uint16", PlyType::kUInt16},  {"int", PlyType::kInt32},
-      {"int32", PlyType::kInt32},   {"uint", PlyType::kUInt32},    {"uint32", PlyType::kUInt32},
-      {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
-      {"float64", PlyType::kFloat64}};
-  for (const auto& [n, t] : kNames) {
-    if (n == name) {
-      type = t;
-      return true;
-    }
-  }
-  return false;
-}
-
-std::size_t ply_size(PlyType t) {
-  switch (t) {
-    case PlyType::kInt8:
-    case PlyType::kUInt8: return 1;
-    case PlyType::kInt16:
-    case PlyType::kUInt16: return 2;
-    case PlyType::kInt32:
-    case PlyType::kUInt32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
-  }
-  return 0;
-}
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::kFloat32;
-  bool is_list = false;
-  PlyType count_type = PlyType::kUInt8;
-};
-
-struct PlyElement {
-  std::string name;
-  std::size_t count = 0;
-  std::vector<PlyProperty> properties;
-};
-
-enum class PlyFormat { kAscii, kBinaryLittle, kBinaryBig };
 
 // Reads the values of a PLY body one at a time, in whichever of the three encodings the header named.
 class PlyValues {
@@ -304,18 +266,7 @@ class PlyValues {
     }
     const auto* p = reinterpret_cast<const unsigned char*>(data_.data()) + pos_;
     pos_ += size;
-    const bool le = format_ == PlyFormat::kBinaryLittle;
-    switch (type) {
-      case PlyType::kInt8: return static_cast<std::int8_t>(*p);
-      case PlyType::kUInt8: return *p;
-      case PlyType::kInt16: return io::load<std::int16_t>(p, le);
-      case PlyType::kUInt16: return io::load<std::uint16_t>(p, le);
-      case PlyType::kInt32: return io::load<std::int32_t>(p, le);
-      case PlyType::kUInt32: return io::load<std::uint32_t>(p, le);
-      case PlyType::kFloat32: return io::load<float>(p, le);
-      case PlyType::kFloat64: return io::load<double>(p, le);
-    }
-    return 0.0;
+    return io::ply_value(type, p, format_ == PlyFormat::kBinaryLittle);
   }
 
   static std::string where(const PlyElement& element, std::size_t row) {
@@ -331,65 +282,19 @@ class PlyValues {
 };
 
 TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
-  std::vector<PlyElement> elements;
-  PlyFormat format = PlyFormat::kAscii;
-  bool have_format = false;
   std::size_t pos = 0;
-  std::size_t line_no = 0;
-  bool header_done = false;
-  while (pos < data.size()) {
-    std::size_t eol = data.find('\n', pos);
-    if (eol == std::string::npos) eol = data.size();
-    std::string_view line(data.data() + pos, eol - pos);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    pos = std::min(eol + 1, data.size());
-    ++line_no;
-    Tokens words(line, 0);
-    const std::string_view key = words.next();
-    const std::string here = at_line(file, line_no);
-    if (line_no == 1) {
-      if (key != "ply") throw Error(file.string() + ": not a PLY file (does not start with 'ply')");
-      continue;
-    }
-    if (key.empty() || key == "comment" || key == "obj_info") continue;
-    if (key == "end_header") {
-      header_done = true;
-      break;
-    }
-    if (key == "format") {
-      const std::string_view name = words.next();
-      if (name == "ascii") format = PlyFormat::kAscii;
-      else if (name == "binary_little_endian") format = PlyFormat::kBinaryLittle;
-      else if (name == "binary_big_endian") format = PlyFormat::kBinaryBig;
-      else throw Error(here + "unknown PLY format '" + std::string(name) + "'");
-      have_format = true;
-    } else if (key == "element") {
-      PlyElement e;
-      e.name = std::string(words.next());
-      long long n = -1;
-      if (e.name.empty() || !parse_integer(words.next(), n) || n < 0) throw Error(here + "malformed PLY element line");
-      e.count = static_cast<std::size_t>(n);
-      elements.push_back(std::move(e));
-    } else if (key == "property") {
-      if (elements.empty()) throw Error(here + "PLY property before any element");
-      PlyProperty p;
-      std::string_view type = words.next();
-      if (type == "list") {
-        p.is_list = true;
-        if (!ply_type_of(words.next(), p.count_type)) throw Error(here + "unknown PLY list count type");
-        type = words.next();
-      }
-      if (!ply_type_of(type, p.type)) throw Error(here + "unknown PLY property type '" + std::string(type) + "'");
-      p.name = std::string(words.next());
-      if (p.name.empty()) throw Error(here + "PLY property without a name");
-      elements.back().properties.push_back(std::move(p));
-    } else {
-      throw Error(here + "unexpected PLY header line '" + std::string(line) + "'");
-    }
-  }
-  if (!header_done) throw Error(file.string() + ": PLY header has no 'end_header' (truncated)");
-  if (!have_format) throw Error(file.string() + ": PLY header has no 'format' line");
-
+  const PlyHeader header = io::parse_ply_header(
+      [&](std::string& line) {
+        if (pos >= data.size()) return false;
+        std::size_t eol = data.find('\n', pos);
+        if (eol == std::string::npos) eol = data.size();
+        line.assign(data, pos, eol - pos);
+        pos = std::min(eol + 1, data.size());
+        return true;
+      },
+      file.string(), limits::kMaxMeshElements);
+  const std::vector<PlyElement>& elements = header.elements;
+  const PlyFormat format = header.format;
   const PlyElement* vertex_element = nullptr;
   const PlyElement* face_element = nullptr;
   for (const PlyElement& e : elements) {
@@ -413,6 +318,22 @@ TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
   }
   if (indices_property < 0) throw Error(file.string() + ": PLY faces have no vertex_indices list");
 
+  // Every row takes at least a byte per value in binary files and two (a digit and a separator) in ascii ones:
+  // counts the rest of the file cannot hold are corrupt, and must not size memory or loops.
+  std::uint64_t min_bytes = 0;
+  const std::uint64_t per_value = format == PlyFormat::kAscii ? 2 : 1;
+  for (const PlyElement& e : elements) {
+    std::uint64_t row = 0;
+    for (const PlyProperty& p : e.properties)
+      row += per_value * (format == PlyFormat::kAscii ? 1 : ply_size(p.is_list ? p.count_type : p.type));
+    if (row == 0 && e.count > 0) throw Error(file.string() + ": PLY element " + e.name + " has rows but no properties");
+    min_bytes += row * e.count;  // at most 2^28 rows of at most 4 * 256 bytes: no overflow
+  }
+  if (min_bytes > data.size() - pos + 1) {
+    throw Error(file.string() + ": PLY header announces at least " + std::to_string(min_bytes) +
+                " bytes of elements, the file has " + std::to_string(data.size() - pos) +
+                " after the header (truncated or corrupt)");
+  }
   TriangleMesh mesh;
   mesh.vertices.reserve(vertex_element->count);
   mesh.triangles.reserve(face_element->count);
@@ -433,26 +354,30 @@ TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
           continue;
         }
         const double n = values.next(p.count_type, e, row);
-        if (!(n >= 0) || n != std::floor(n) || n > 1e6) throw Error(file.string() + ": bad PLY list length in " + PlyValues::where(e, row));
+        if (!(n >= 0) || n != std::floor(n) || n > 1e6)
+          throw Error(file.string() + ": bad PLY list length in " + PlyValues::where(e, row));
         const bool keep = is_face && static_cast<int>(k) == indices_property;
         if (keep) polygon.clear();
         for (long long i = 0; i < static_cast<long long>(n); ++i) {
           const double v = values.next(p.type, e, row);
           if (!keep) continue;
           if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
-            throw Error(file.string() + ": PLY vertex index " + std::to_string(v) + " is not valid in " + PlyValues::where(e, row));
+            throw Error(file.string() + ": PLY vertex index " + std::to_string(v) + " is not valid in " +
+                        PlyValues::where(e, row));
           }
           polygon.push_back(static_cast<long long>(v));
         }
         if (!keep) continue;
-        if (polygon.size() < 3) throw Error(file.string() + ": PLY face with fewer than 3 vertices in " + PlyValues::where(e, row));
+        if (polygon.size() < 3)
+          throw Error(file.string() + ": PLY face with fewer than 3 vertices in " + PlyValues::where(e, row));
         for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
           mesh.triangles.emplace_back(static_cast<int>(polygon[0]), static_cast<int>(polygon[i]),
                                       static_cast<int>(polygon[i + 1]));
         }
       }
       if (is_vertex) {
-        const Eigen::Vector3f v(static_cast<float>(coord[0]), static_cast<float>(coord[1]), static_cast<float>(coord[2]));
+        const Eigen::Vector3f v(static_cast<float>(coord[0]), static_cast<float>(coord[1]),
+                                static_cast<float>(coord[2]));
         check_finite(v, file, "vertex " + std::to_string(row));
         mesh.vertices.push_back(v);
       }
@@ -489,7 +414,8 @@ TriangleMesh parse_obj(const std::string& data, const fs::path& file) {
       for (double& x : c) {
         const std::string_view token = words.next();
         if (!parse_number(token, x)) {
-          throw Error(at_line(file, line_no) + "malformed OBJ vertex: expected a number, got '" + std::string(token) + "'");
+          throw Error(at_line(file, line_no) + "malformed OBJ vertex: expected a number, got '" + std::string(token) +
+                      "'");
         }
       }
       const Eigen::Vector3f v(static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2]));
@@ -505,9 +431,13 @@ TriangleMesh parse_obj(const std::string& data, const fs::path& file) {
           throw Error(at_line(file, line_no) + "malformed OBJ face vertex '" + std::string(ref) + "'");
         }
         // Negative indices count back from the last vertex defined so far.
-        if (index < 0) index += static_cast<long long>(mesh.vertices.size());
-        else index -= 1;
-        if (index < 0) throw Error(at_line(file, line_no) + "OBJ face vertex '" + std::string(ref) + "' refers before the first vertex");
+        if (index < 0)
+          index += static_cast<long long>(mesh.vertices.size());
+        else
+          index -= 1;
+        if (index < 0)
+          throw Error(at_line(file, line_no) + "OBJ face vertex '" + std::string(ref) +
+                      "' refers before the first vertex");
         if (index > std::numeric_limits<int>::max()) throw Error(at_line(file, line_no) + "OBJ face index too large");
         polygon.push_back(index);
       }
@@ -531,7 +461,8 @@ TriangleMesh parse_obj(const std::string& data, const fs::path& file) {
 
 std::string lower_extension(const fs::path& file) {
   std::string ext = file.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
 
@@ -543,7 +474,9 @@ TriangleMesh load_mesh(const fs::path& file) {
     throw Error("mesh " + file.string() + ": unknown extension '" + ext + "' (expected .stl, .ply or .obj)");
   }
   const std::string data = read_whole_file(file);
-  TriangleMesh mesh = ext == ".stl" ? parse_stl(data, file) : ext == ".ply" ? parse_ply(data, file) : parse_obj(data, file);
+  TriangleMesh mesh = ext == ".stl"   ? parse_stl(data, file)
+                      : ext == ".ply" ? parse_ply(data, file)
+                                      : parse_obj(data, file);
   if (mesh.triangles.empty()) throw Error(file.string() + ": mesh has no triangles");
   return mesh;
 }
@@ -561,11 +494,7 @@ void save_mesh_ply(const TriangleMesh& mesh, const fs::path& file) {
     out.push_back(3);
     for (int a = 0; a < 3; ++a) io::append_le(out, static_cast<std::int32_t>(t[a]));
   }
-  std::ofstream f(file, std::ios::binary | std::ios::trunc);
-  if (!f) throw Error("cannot write mesh " + file.string());
-  f.write(out.data(), static_cast<std::streamsize>(out.size()));
-  f.close();
-  if (!f) throw Error("cannot write mesh " + file.string());
+  write_file_atomically(file, out, "mesh");
 }
 
 }  // namespace tsdf_mcl

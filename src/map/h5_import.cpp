@@ -5,12 +5,15 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <tuple>
 #include <string>
 #include <vector>
 
+#include "build_budget.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/input_file.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
 namespace tsdf_mcl {
@@ -74,6 +77,22 @@ std::vector<std::uint32_t> read_chunk(hid_t group, const Chunk& chunk, const std
       !(rank == 1 || (rank == 3 && dims[0] == kChunkSize && dims[1] == kChunkSize && dims[2] == kChunkSize))) {
     throw Error(what + " does not have the shape of a 64^3 chunk");
   }
+  // libhdf5 (1.10) trusts the dataspace over the sizes stored for the data and reads past its own buffer when they
+  // disagree (found by fuzzing): a compact dataset must store the whole chunk, and an unfiltered chunked one whole
+  // HDF5 chunks.
+  const H5Handle plist(H5Dget_create_plist(set.get()), H5Pclose);
+  const H5D_layout_t layout = plist.valid() ? H5Pget_layout(plist.get()) : H5D_LAYOUT_ERROR;
+  const hsize_t stored = H5Dget_storage_size(set.get());
+  bool sizes_agree =
+      layout == H5D_CONTIGUOUS || (layout == H5D_COMPACT && stored == static_cast<hsize_t>(kChunkVoxels) * 4);
+  if (layout == H5D_CHUNKED) {
+    hsize_t chunk_dims[H5S_MAX_RANK] = {};
+    const int chunk_rank = H5Pget_chunk(plist.get(), H5S_MAX_RANK, chunk_dims);
+    hsize_t chunk_bytes = 4;
+    for (int a = 0; a < chunk_rank; ++a) chunk_bytes *= chunk_dims[a];
+    sizes_agree = chunk_rank > 0 && (H5Pget_nfilters(plist.get()) != 0 || stored % chunk_bytes == 0);
+  }
+  if (!sizes_agree) throw Error(what + ": the stored data does not match its 64^3 shape (corrupt)");
   std::vector<std::uint32_t> words(kChunkVoxels);
   if (H5Dread(set.get(), H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, words.data()) < 0) {
     throw Error("cannot read " + what);
@@ -83,14 +102,13 @@ std::vector<std::uint32_t> read_chunk(hid_t group, const Chunk& chunk, const std
 
 }  // namespace
 
-TsdfMap import_reference_h5(const fs::path& file, float truncation) {
+TsdfMap import_reference_h5(const fs::path& file, float truncation, std::uint64_t max_memory_bytes) {
   if (!(truncation >= kReferenceVoxelSize) || !std::isfinite(truncation)) {
-    throw Error("truncation " + std::to_string(truncation) + " m must be at least the reference maps' voxel size (0.064 m)");
+    throw Error("truncation " + std::to_string(truncation) +
+                " m must be at least the reference maps' voxel size (0.064 m)");
   }
   const std::string where = "HDF5 map " + file.string();
-  std::error_code ec;
-  if (!fs::exists(file, ec)) throw Error(where + " does not exist");
-  if (fs::is_directory(file, ec)) throw Error(where + " is a directory, not a file");
+  input_file_size(file, "HDF5 map", std::numeric_limits<std::uint64_t>::max());
   // The library would print its own error stack to stderr; every failure is reported through Error instead.
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   if (H5Fis_hdf5(file.c_str()) <= 0) throw Error(where + ": not an HDF5 file");
@@ -116,7 +134,8 @@ TsdfMap import_reference_h5(const fs::path& file, float truncation) {
       throw Error(where + ": dataset /map/" + name + " is not named like a chunk (cx_cy_cz)");
     }
     // Voxel indices chunk*64 + 63 must stay within int with room for the block arithmetic.
-    if ((c.index.array().abs() > (1 << 20)).any()) throw Error(where + ": chunk /map/" + name + " is implausibly far out");
+    if ((c.index.array().abs() > (1 << 20)).any())
+      throw Error(where + ": chunk /map/" + name + " is implausibly far out");
     if (!seen.emplace(c.index.x(), c.index.y(), c.index.z()).second) {
       throw Error(where + ": two datasets name chunk " + name);
     }
@@ -126,7 +145,16 @@ TsdfMap import_reference_h5(const fs::path& file, float truncation) {
   }
   if (chunks.empty()) throw Error(where + ": /map holds no chunks");
 
-  TsdfMap map(kReferenceVoxelSize, truncation, lo * kBlocksPerChunk, (hi - lo).array() * kBlocksPerChunk + kBlocksPerChunk);
+  const Eigen::Vector3i min_block = lo * kBlocksPerChunk;
+  const Eigen::Vector3i dims = (hi - lo).array() * kBlocksPerChunk + kBlocksPerChunk;
+  TsdfMap::validate_geometry(kReferenceVoxelSize, truncation, min_block, dims);
+  BuildBudget budget(max_memory_bytes);
+  budget.charge(dims.cast<std::uint64_t>().prod() * sizeof(std::uint32_t), "the chunks' bounding box in blocks");
+  // Every block of every chunk may be known: its pool block, and its copy while the pool is compacted.
+  constexpr std::uint64_t kChunkPoolBytes = std::uint64_t{kBlocksPerChunk * kBlocksPerChunk * kBlocksPerChunk} *
+                                            TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
+  budget.charge(chunks.size() * 2 * kChunkPoolBytes, "the chunks' blocks");
+  TsdfMap map(kReferenceVoxelSize, truncation, min_block, dims);
   std::array<std::int16_t, TsdfMap::kVoxelsPerBlock> block{};
   for (const Chunk& c : chunks) {
     const std::vector<std::uint32_t> words = read_chunk(group.get(), c, where);

@@ -10,16 +10,18 @@
 //  56  uint64   block pool words
 //  64  uint32[] coarse index, then uint32[] block pool
 // end  uint32   CRC-32 (IEEE) of every byte before it
-#include <unistd.h>
-
 #include <algorithm>
-#include <array>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <fstream>
 #include <string>
 
-#include "io/little_endian.hpp"
+#include <zlib.h>
+
+#include "tsdf_mcl/little_endian.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
+#include "tsdf_mcl/input_file.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
@@ -31,38 +33,14 @@ constexpr char kMagic[8] = {'T', 'S', 'D', 'F', 'M', 'C', 'L', '\0'};
 constexpr std::uint32_t kFormatVersion = 1;
 constexpr std::size_t kHeaderBytes = 64;
 
-// Slicing-by-8 CRC-32 (polynomial 0xEDB88320): maps are hundreds of MB, and the byte-wise loop would make
-// the checksum a visible part of loading.
+// CRC-32 (zlib's: the checksum of gzip and PNG, table-driven and fast on maps of hundreds of MB).
 class Crc32 {
  public:
-  Crc32() {
-    for (std::uint32_t i = 0; i < 256; ++i) {
-      std::uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      table_[0][i] = c;
-    }
-    for (std::uint32_t i = 0; i < 256; ++i) {
-      for (int t = 1; t < 8; ++t) table_[t][i] = (table_[t - 1][i] >> 8) ^ table_[0][table_[t - 1][i] & 0xFFu];
-    }
-  }
-
-  void update(const void* data, std::size_t size) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    std::uint32_t c = ~crc_;
-    for (; size >= 8; size -= 8, p += 8) {
-      const std::uint32_t lo = io::load<std::uint32_t>(p, true) ^ c;
-      const std::uint32_t hi = io::load<std::uint32_t>(p + 4, true);
-      c = table_[7][lo & 0xFFu] ^ table_[6][(lo >> 8) & 0xFFu] ^ table_[5][(lo >> 16) & 0xFFu] ^ table_[4][lo >> 24] ^
-          table_[3][hi & 0xFFu] ^ table_[2][(hi >> 8) & 0xFFu] ^ table_[1][(hi >> 16) & 0xFFu] ^ table_[0][hi >> 24];
-    }
-    for (; size > 0; --size, ++p) c = table_[0][(c ^ *p) & 0xFFu] ^ (c >> 8);
-    crc_ = ~c;
-  }
-  std::uint32_t value() const { return crc_; }
+  void update(const void* data, std::size_t size) { crc_ = crc32_z(crc_, static_cast<const Bytef*>(data), size); }
+  std::uint32_t value() const { return static_cast<std::uint32_t>(crc_); }
 
  private:
-  std::array<std::array<std::uint32_t, 256>, 8> table_{};
-  std::uint32_t crc_ = 0;
+  uLong crc_ = crc32_z(0L, Z_NULL, 0);
 };
 
 std::string header_bytes(const TsdfMap& map) {
@@ -120,40 +98,26 @@ void save_map(const TsdfMap& map, const fs::path& file) {
 
   // Written beside the target and renamed over it, so a failed or interrupted save never leaves a half-written
   // map where a good one was.
-  const fs::path temp = file.string() + ".partial-" + std::to_string(::getpid());
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot write map " + file.string() + " (cannot create " + temp.string() + ")");
-    out.write(header.data(), static_cast<std::streamsize>(header.size()));
-    out.write(coarse.data(), static_cast<std::streamsize>(coarse.bytes()));
-    out.write(pool.data(), static_cast<std::streamsize>(pool.bytes()));
-    out.write(trailer.data(), static_cast<std::streamsize>(trailer.size()));
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(temp, ec);
-      throw Error("cannot write map " + file.string() + " (disk full?)");
-    }
-  }
-  std::error_code ec;
-  fs::rename(temp, file, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(temp, ignored);
-    throw Error("cannot write map " + file.string() + ": " + ec.message());
-  }
+  write_file_atomically(
+      file,
+      [&](const fs::path& temporary) {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        out.write(header.data(), static_cast<std::streamsize>(header.size()));
+        out.write(coarse.data(), static_cast<std::streamsize>(coarse.bytes()));
+        out.write(pool.data(), static_cast<std::streamsize>(pool.bytes()));
+        out.write(trailer.data(), static_cast<std::streamsize>(trailer.size()));
+        out.close();
+        if (!out) throw Error("cannot write map " + file.string() + " (disk full?)");
+      },
+      "map");
 }
 
 TsdfMap load_map(const fs::path& file) {
   const std::string name = "map " + file.string();
-  std::error_code ec;
-  if (!fs::exists(file, ec)) throw Error(name + " does not exist");
-  if (fs::is_directory(file, ec)) throw Error(name + " is a directory, not a map file");
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in) throw Error("cannot open " + name);
-  const auto size = static_cast<std::uint64_t>(in.tellg());
-  in.seekg(0);
+  const std::uint64_t size = input_file_size(file, "map", std::numeric_limits<std::uint64_t>::max());
   if (size == 0) throw Error(name + ": empty file");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error("cannot open " + name);
 
   unsigned char header[kHeaderBytes] = {};
   in.read(reinterpret_cast<char*>(header), static_cast<std::streamsize>(std::min<std::uint64_t>(size, kHeaderBytes)));
@@ -195,6 +159,17 @@ TsdfMap load_map(const fs::path& file) {
   if (size > expected) {
     throw Error(name + ": " + std::to_string(size) + " bytes, but its header accounts for " + std::to_string(expected) +
                 " (trailing data or corrupt header)");
+  }
+
+  // The geometry is checked before the payload is read: a header out of range says so, whatever the file's size.
+  try {
+    TsdfMap::validate_geometry(voxel_size, truncation, min_block, dims);
+  } catch (const Error& e) {
+    throw Error(name + ": header out of range: " + e.what());
+  }
+  if (coarse_count != dims.cast<std::uint64_t>().prod()) {
+    throw Error(name + ": header names " + std::to_string(coarse_count) + " coarse index entries for a box of " +
+                std::to_string(dims.cast<std::uint64_t>().prod()) + " blocks (corrupt header)");
   }
 
   Crc32 crc;

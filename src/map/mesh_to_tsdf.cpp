@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "build_budget.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_builder.hpp"
 
@@ -109,13 +110,20 @@ struct Surface {
 
   const Vector3f& pseudo_normal(const Triangle& t, Feature f) const {
     switch (f) {
-      case Feature::kFace: return t.normal;
-      case Feature::kVertex0: return vertex_normal[static_cast<std::size_t>(t.vertex[0])];
-      case Feature::kVertex1: return vertex_normal[static_cast<std::size_t>(t.vertex[1])];
-      case Feature::kVertex2: return vertex_normal[static_cast<std::size_t>(t.vertex[2])];
-      case Feature::kEdge01: return edge_normal[static_cast<std::size_t>(t.edge[0])];
-      case Feature::kEdge12: return edge_normal[static_cast<std::size_t>(t.edge[1])];
-      case Feature::kEdge20: return edge_normal[static_cast<std::size_t>(t.edge[2])];
+      case Feature::kFace:
+        return t.normal;
+      case Feature::kVertex0:
+        return vertex_normal[static_cast<std::size_t>(t.vertex[0])];
+      case Feature::kVertex1:
+        return vertex_normal[static_cast<std::size_t>(t.vertex[1])];
+      case Feature::kVertex2:
+        return vertex_normal[static_cast<std::size_t>(t.vertex[2])];
+      case Feature::kEdge01:
+        return edge_normal[static_cast<std::size_t>(t.edge[0])];
+      case Feature::kEdge12:
+        return edge_normal[static_cast<std::size_t>(t.edge[1])];
+      case Feature::kEdge20:
+        return edge_normal[static_cast<std::size_t>(t.edge[2])];
     }
     return t.normal;
   }
@@ -132,7 +140,8 @@ Surface prepare_surface(const TriangleMesh& mesh) {
   s.triangles.reserve(mesh.triangles.size());
   for (const Vector3i& tri : mesh.triangles) {
     if ((tri.array() < 0).any() || (tri.array() >= n_vertices).any()) {
-      throw Error("mesh triangle refers to vertex " + std::to_string(tri.maxCoeff()) + " of " + std::to_string(n_vertices));
+      throw Error("mesh triangle refers to vertex " + std::to_string(tri.maxCoeff()) + " of " +
+                  std::to_string(n_vertices));
     }
     Triangle t;
     t.a = mesh.vertices[static_cast<std::size_t>(tri[0])];
@@ -148,7 +157,8 @@ Surface prepare_surface(const TriangleMesh& mesh) {
     for (int k = 0; k < 3; ++k) {
       t.vertex[static_cast<std::size_t>(k)] = tri[k];
       const int u = tri[k], v = tri[(k + 1) % 3];
-      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(u, v)) << 32) | static_cast<std::uint32_t>(std::max(u, v));
+      const std::uint64_t key =
+          (static_cast<std::uint64_t>(std::min(u, v)) << 32) | static_cast<std::uint32_t>(std::max(u, v));
       const auto [it, inserted] = edge_ids.try_emplace(key, static_cast<int>(s.edge_normal.size()));
       if (inserted) s.edge_normal.push_back(Vector3f::Zero());
       t.edge[static_cast<std::size_t>(k)] = it->second;
@@ -166,23 +176,84 @@ Surface prepare_surface(const TriangleMesh& mesh) {
   return s;
 }
 
+// A convex polygon: a triangle clipped by up to four axis-aligned planes has at most seven corners.
+struct Polygon {
+  std::array<Vector3f, 8> corner;
+  int size = 0;
+  float min(int axis) const {
+    float m = corner[0][axis];
+    for (int i = 1; i < size; ++i) m = std::min(m, corner[static_cast<std::size_t>(i)][axis]);
+    return m;
+  }
+  float max(int axis) const {
+    float m = corner[0][axis];
+    for (int i = 1; i < size; ++i) m = std::max(m, corner[static_cast<std::size_t>(i)][axis]);
+    return m;
+  }
+};
+
+// The part of `p` with lo <= coordinate `axis` <= hi (Sutherland-Hodgman against the slab's two planes).
+Polygon clipped(const Polygon& p, int axis, float lo, float hi) {
+  auto clip = [axis](const Polygon& in, float bound, float side) {
+    Polygon out;
+    for (int i = 0; i < in.size; ++i) {
+      const Vector3f& a = in.corner[static_cast<std::size_t>(i)];
+      const Vector3f& b = in.corner[static_cast<std::size_t>((i + 1) % in.size)];
+      const float da = side * (a[axis] - bound), db = side * (b[axis] - bound);
+      if (da >= 0.0f) out.corner[static_cast<std::size_t>(out.size++)] = a;
+      if ((da < 0.0f) != (db < 0.0f)) out.corner[static_cast<std::size_t>(out.size++)] = a + (b - a) * (da / (da - db));
+    }
+    return out;
+  };
+  return clip(clip(p, lo, 1.0f), hi, -1.0f);
+}
+
 // Block grid helpers over the map's coarse index.
 struct BlockGrid {
   const TsdfMap& map;
   float voxel;
+
+  // The extent of the voxel centres of the blocks with index b along an axis.
+  float slab_lo(int b) const { return static_cast<float>(b * TsdfMap::kBlockSize) * voxel; }
+  float slab_hi(int b) const { return static_cast<float>(b * TsdfMap::kBlockSize + TsdfMap::kBlockSize - 1) * voxel; }
+  // Blocks along `axis` whose voxel centres may come within `radius` of [lo, hi], clipped to the map.
+  void block_span(float lo, float hi, float radius, int axis, int& first, int& last) const {
+    // The map's box holds every triangle (plus its margin), so these stay within the map's voxel index range.
+    const auto v_lo = static_cast<int>(std::floor((lo - radius) / voxel));
+    const auto v_hi = static_cast<int>(std::ceil((hi + radius) / voxel));
+    first = std::max(TsdfMap::block_of(Vector3i::Constant(v_lo))[0], map.min_block()[axis]);
+    last =
+        std::min(TsdfMap::block_of(Vector3i::Constant(v_hi))[0], map.min_block()[axis] + map.dims_blocks()[axis] - 1);
+  }
 
   // Centre and half size of the box spanned by the block's voxel centres.
   Vector3f center(const Vector3i& block) const {
     return (block.cast<float>() * TsdfMap::kBlockSize).array() * voxel + 0.5f * (TsdfMap::kBlockSize - 1) * voxel;
   }
   float half() const { return 0.5f * (TsdfMap::kBlockSize - 1) * voxel; }
-  // Blocks whose voxel-centre box may come within `radius` of [lo, hi], clipped to the map.
-  void range(const Vector3f& lo, const Vector3f& hi, float radius, Vector3i& first, Vector3i& last) const {
-    for (int a = 0; a < 3; ++a) {
-      const auto v_lo = static_cast<int>(std::floor((lo[a] - radius) / voxel));
-      const auto v_hi = static_cast<int>(std::ceil((hi[a] + radius) / voxel));
-      first[a] = std::max(TsdfMap::block_of(Vector3i::Constant(v_lo))[0], map.min_block()[a]);
-      last[a] = std::min(TsdfMap::block_of(Vector3i::Constant(v_hi))[0], map.min_block()[a] + map.dims_blocks()[a] - 1);
+  // Calls visit(block) for every block of the map whose voxel-centre box may come within `radius` of the triangle:
+  // the triangle is clipped to each slab of blocks along x, each piece to each slab along y, and the z extent of
+  // what remains gives the blocks. The work is proportional to the blocks near the triangle, not to its bounding
+  // box, which for a long sliver across the map is most of the map.
+  template <typename Visit>
+  void for_each_block_near(const Triangle& t, float radius, Visit&& visit) const {
+    // Float clipping may round a point just inside a slab to just outside; the overlap test after it is exact.
+    const float r = radius + 0.01f * voxel;
+    const Polygon triangle{{t.a, t.b, t.c}, 3};
+    int x0, x1;
+    block_span(t.lo.x(), t.hi.x(), r, 0, x0, x1);
+    for (int x = x0; x <= x1; ++x) {
+      const Polygon column = clipped(triangle, 0, slab_lo(x) - r, slab_hi(x) + r);
+      if (column.size == 0) continue;
+      int y0, y1;
+      block_span(column.min(1), column.max(1), r, 1, y0, y1);
+      for (int y = y0; y <= y1; ++y) {
+        const Polygon piece = clipped(column, 1, slab_lo(y) - r, slab_hi(y) + r);
+        if (piece.size == 0) continue;
+        int z0, z1;
+        block_span(piece.min(2), piece.max(2), r, 2, z0, z1);
+        for (int z = z0; z <= z1; ++z) visit(Vector3i(x, y, z));
+      }
     }
   }
   Vector3i block_of_cell(std::int64_t cell) const {
@@ -301,7 +372,8 @@ TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& opti
   const float trunc = options.truncation;
   if (!(vs > 0.0f) || !std::isfinite(vs)) throw Error("voxel size must be positive, got " + std::to_string(vs));
   if (!(trunc >= vs) || !std::isfinite(trunc)) {
-    throw Error("truncation (" + std::to_string(trunc) + " m) must be at least the voxel size (" + std::to_string(vs) + " m)");
+    throw Error("truncation (" + std::to_string(trunc) + " m) must be at least the voxel size (" + std::to_string(vs) +
+                " m)");
   }
   if (!(options.margin >= 0.0f) || !std::isfinite(options.margin)) throw Error("margin must not be negative");
   if (mesh.triangles.empty()) throw Error("mesh has no triangles");
@@ -309,7 +381,12 @@ TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& opti
 
   // The box holds the whole truncation band, whatever the margin.
   const float border = std::max(options.margin, trunc);
-  TsdfMap map = TsdfMap::covering(vs, trunc, mesh.min_corner().array() - border, mesh.max_corner().array() + border);
+  const Vector3f lo = mesh.min_corner().array() - border, hi = mesh.max_corner().array() + border;
+  BuildBudget budget(options.max_memory_bytes);
+  // Per cell of the box: the coarse index entry, the band lookup, the free-space search's mark and queue entry.
+  budget.charge(TsdfMap::box_cells(vs, trunc, lo, hi) * (2 * sizeof(std::uint32_t) + 1 + sizeof(std::int64_t)),
+                "the bounding box in blocks");
+  TsdfMap map = TsdfMap::covering(vs, trunc, lo, hi);
   const BlockGrid grid{map, vs};
   const std::size_t cells = map.coarse_index().size();
 
@@ -317,17 +394,15 @@ TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& opti
   std::vector<int> band_of_cell(cells, -1);
   std::vector<Vector3i> band_blocks;
   for (const Triangle& t : surface.triangles) {
-    Vector3i first, last;
-    grid.range(t.lo, t.hi, trunc, first, last);
-    for (int z = first.z(); z <= last.z(); ++z)
-      for (int y = first.y(); y <= last.y(); ++y)
-        for (int x = first.x(); x <= last.x(); ++x) {
-          const Vector3i block(x, y, z);
-          int& band = band_of_cell[static_cast<std::size_t>(map.coarse_cell(block))];
-          if (band >= 0 || !overlaps(t, grid.center(block), grid.half() + trunc)) continue;
-          band = static_cast<int>(band_blocks.size());
-          band_blocks.push_back(block);
-        }
+    grid.for_each_block_near(t, trunc, [&](const Vector3i& block) {
+      int& band = band_of_cell[static_cast<std::size_t>(map.coarse_cell(block))];
+      if (band >= 0 || !overlaps(t, grid.center(block), grid.half() + trunc)) return;
+      // The block's signed distances, its pool block and its place in the lists.
+      budget.charge(2 * sizeof(BlockValues) + sizeof(Vector3i) + sizeof(std::vector<Candidate>),
+                    "blocks near the surface");
+      band = static_cast<int>(band_blocks.size());
+      band_blocks.push_back(block);
+    });
   }
 
   // 2. Candidate triangles per band block. A band block has a triangle within sqrt(3)*truncation of its voxel-centre
@@ -337,17 +412,13 @@ TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& opti
   std::vector<std::vector<Candidate>> candidates(band_blocks.size());
   for (std::size_t i = 0; i < surface.triangles.size(); ++i) {
     const Triangle& t = surface.triangles[i];
-    Vector3i first, last;
-    grid.range(t.lo, t.hi, reach, first, last);
-    for (int z = first.z(); z <= last.z(); ++z)
-      for (int y = first.y(); y <= last.y(); ++y)
-        for (int x = first.x(); x <= last.x(); ++x) {
-          const Vector3i block(x, y, z);
-          const int band = band_of_cell[static_cast<std::size_t>(map.coarse_cell(block))];
-          if (band < 0 || !overlaps(t, grid.center(block), grid.half() + reach)) continue;
-          candidates[static_cast<std::size_t>(band)].push_back(
-              {distance_lower_bound(t, grid.center(block), grid.half()), static_cast<int>(i)});
-        }
+    grid.for_each_block_near(t, reach, [&](const Vector3i& block) {
+      const int band = band_of_cell[static_cast<std::size_t>(map.coarse_cell(block))];
+      if (band < 0 || !overlaps(t, grid.center(block), grid.half() + reach)) return;
+      budget.charge(sizeof(Candidate), "triangles near each block");
+      candidates[static_cast<std::size_t>(band)].push_back(
+          {distance_lower_bound(t, grid.center(block), grid.half()), static_cast<int>(i)});
+    });
   }
 
   // 3. Signed distances, block-parallel (blocks are independent). Progress is reported between batches, from one
@@ -360,8 +431,10 @@ TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& opti
 #pragma omp parallel for schedule(dynamic, 8)
     for (std::int64_t b = begin; b < end; ++b) {
       auto& list = candidates[static_cast<std::size_t>(b)];
-      std::sort(list.begin(), list.end(), [](const Candidate& l, const Candidate& r) { return l.lower_bound < r.lower_bound; });
-      values[static_cast<std::size_t>(b)] = signed_distances(surface, list, band_blocks[static_cast<std::size_t>(b)], map);
+      std::sort(list.begin(), list.end(),
+                [](const Candidate& l, const Candidate& r) { return l.lower_bound < r.lower_bound; });
+      values[static_cast<std::size_t>(b)] =
+          signed_distances(surface, list, band_blocks[static_cast<std::size_t>(b)], map);
       std::vector<Candidate>().swap(list);
     }
     if (progress) progress(static_cast<std::size_t>(end), static_cast<std::size_t>(total));

@@ -27,6 +27,8 @@
 #include <limits>
 #include <vector>
 
+#include "build_budget.hpp"
+#include "grid_walk.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/map_builder.hpp"
 
@@ -35,6 +37,7 @@ namespace {
 
 using Eigen::Vector3f;
 using Eigen::Vector3i;
+using grid::walk;
 
 constexpr int B = TsdfMap::kBlockSize;
 constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
@@ -71,48 +74,17 @@ WorldScan load_world_scan(const Dataset& dataset, std::size_t index, const ScanM
   return scan;
 }
 
-// The cells of a grid that the segment origin + t*dir, t in [t0, t1], passes through, in order (Amanatides & Woo):
-// visit(cell, t_in, t_out). Cells are `scale` voxels wide and aligned with the voxel grid (scale 1: voxels,
-// scale kBlockSize: blocks); voxel v spans [v - 1/2, v + 1/2) * voxel on each axis.
-template <typename Visit>
-void walk(const Vector3f& origin, const Vector3f& dir, float t0, float t1, float voxel, int scale, Visit&& visit) {
-  const float size = voxel * static_cast<float>(scale);
-  const Vector3f g = ((origin + t0 * dir) / voxel + Vector3f::Constant(0.5f)) / static_cast<float>(scale);
-  Vector3i c(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())), static_cast<int>(std::floor(g.z())));
-  Vector3i step;
-  Vector3f t_max, t_delta;
-  for (int a = 0; a < 3; ++a) {
-    if (dir[a] > 0.0f) {
-      step[a] = 1;
-      t_delta[a] = size / dir[a];
-      t_max[a] = t0 + (static_cast<float>(c[a] + 1) - g[a]) * t_delta[a];
-    } else if (dir[a] < 0.0f) {
-      step[a] = -1;
-      t_delta[a] = -size / dir[a];
-      t_max[a] = t0 + (g[a] - static_cast<float>(c[a])) * t_delta[a];
-    } else {
-      step[a] = 0;
-      t_delta[a] = std::numeric_limits<float>::infinity();
-      t_max[a] = std::numeric_limits<float>::infinity();
-    }
-  }
-  float t_in = t0;
-  while (true) {
-    const int a = t_max.x() < t_max.y() ? (t_max.x() < t_max.z() ? 0 : 2) : (t_max.y() < t_max.z() ? 1 : 2);
-    visit(c, t_in, std::min(t_max[a], t1));
-    if (t_max[a] >= t1) return;
-    t_in = t_max[a];
-    c[a] += step[a];
-    t_max[a] += t_delta[a];
-  }
-}
-
 // The accumulator: a dense index over the observed box in blocks, and one pool of band blocks per owner.
 class Accumulator {
  public:
-  Accumulator(const TsdfMap& box, int owners)
-      : voxel_(box.voxel_size()), truncation_(box.truncation()), min_block_(box.min_block()),
-        dims_(box.dims_blocks()), owners_(owners), slot_(box.coarse_index().size(), kNoBlock),
+  Accumulator(const TsdfMap& box, int owners, BuildBudget& budget)
+      : budget_(budget),
+        voxel_(box.voxel_size()),
+        truncation_(box.truncation()),
+        min_block_(box.min_block()),
+        dims_(box.dims_blocks()),
+        owners_(owners),
+        slot_(box.coarse_index().size(), kNoBlock),
         band_(static_cast<std::size_t>(owners)) {
     dims_.maxCoeff(&slab_axis_);
     slab_count_ = (dims_[slab_axis_] + kSlabBlocks - 1) / kSlabBlocks;
@@ -137,6 +109,9 @@ class Accumulator {
           std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
           auto& pool = acc_.band_[static_cast<std::size_t>(owner_)];
           if (slot == kNoBlock) {
+            // The block's sums now, its pool block in the map later.
+            acc_.budget_.charge(sizeof(BandBlock) + TsdfMap::kWordsPerBlock * sizeof(std::uint32_t),
+                                "blocks near surfaces");
             slot = static_cast<std::uint32_t>(pool.size());
             pool.emplace_back();
           }
@@ -215,7 +190,8 @@ class Accumulator {
         inside_ = (c.array() >= 0).all() && (c.array() < acc_.dims_.array()).all() &&
                   c[acc_.slab_axis_] / kSlabBlocks == slab_;
         if (inside_) {
-          cell_ = c.x() + static_cast<std::int64_t>(acc_.dims_.x()) * (c.y() + static_cast<std::int64_t>(acc_.dims_.y()) * c.z());
+          cell_ = c.x() + static_cast<std::int64_t>(acc_.dims_.x()) *
+                              (c.y() + static_cast<std::int64_t>(acc_.dims_.y()) * c.z());
         }
       }
       return inside_;
@@ -237,13 +213,15 @@ class Accumulator {
       const std::uint32_t slot = slot_[cell];
       if (slot == kNoBlock) continue;
       const auto c = static_cast<std::int64_t>(cell);
-      const Vector3i block = min_block_ + Vector3i(static_cast<int>(c % dims_.x()), static_cast<int>((c / dims_.x()) % dims_.y()),
-                                                   static_cast<int>(c / (static_cast<std::int64_t>(dims_.x()) * dims_.y())));
+      const Vector3i block =
+          min_block_ + Vector3i(static_cast<int>(c % dims_.x()), static_cast<int>((c / dims_.x()) % dims_.y()),
+                                static_cast<int>(c / (static_cast<std::int64_t>(dims_.x()) * dims_.y())));
       if (slot == kCarvedBlock) {
         map.mark_block_free(block);
         continue;
       }
-      const BandBlock& b = band_[static_cast<std::size_t>(((block - min_block_)[slab_axis_] / kSlabBlocks) % owners_)][slot];
+      const BandBlock& b =
+          band_[static_cast<std::size_t>(((block - min_block_)[slab_axis_] / kSlabBlocks) % owners_)][slot];
       for (std::size_t l = 0; l < kVoxels; ++l) {
         values[l] = b[l].w > 0.0f ? map.quantize(b[l].wd / b[l].w) : TsdfMap::kUnknownValue;
       }
@@ -253,11 +231,12 @@ class Accumulator {
   }
 
  private:
+  BuildBudget& budget_;
   float voxel_, truncation_;
   Vector3i min_block_, dims_;
   int owners_;  // slab s belongs to owner s % owners_
   int slab_axis_ = 0, slab_count_ = 0;
-  std::vector<std::uint32_t> slot_;  // kNoBlock, kCarvedBlock or a band block number in the owner's pool
+  std::vector<std::uint32_t> slot_;          // kNoBlock, kCarvedBlock or a band block number in the owner's pool
   std::vector<std::deque<BandBlock>> band_;  // deques: blocks never move once allocated
 };
 
@@ -273,7 +252,8 @@ void validate(const Dataset& dataset, const std::vector<std::size_t>& scans, con
     throw Error("range limits must satisfy 0 <= min_range < max_range (finite)");
   }
   if (!(o.margin >= 0.0f) || !std::isfinite(o.margin)) throw Error("margin must not be negative");
-  if (!dataset.has_poses()) throw Error("dataset " + dataset.dir().string() + " has no poses.txt (needed to place the scans)");
+  if (!dataset.has_poses())
+    throw Error("dataset " + dataset.dir().string() + " has no poses.txt (needed to place the scans)");
   if (scans.empty()) throw Error("no scans selected for the map");
   for (std::size_t i : scans) {
     if (i >= dataset.size()) {
@@ -317,9 +297,14 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
                 std::to_string(options.max_range) + "] m");
   }
   const float border = trunc + vs + options.margin;
-  const TsdfMap box = TsdfMap::covering(vs, trunc, lo.array() - border, hi.array() + border);
+  const Vector3f box_lo = lo.array() - border, box_hi = hi.array() + border;
+  BuildBudget budget(options.max_memory_bytes);
+  // Per cell of the box: the accumulator's slot, the box's and the result's coarse index entries.
+  budget.charge(TsdfMap::box_cells(vs, trunc, box_lo, box_hi) * 3 * sizeof(std::uint32_t),
+                "the observed box in blocks");
+  const TsdfMap box = TsdfMap::covering(vs, trunc, box_lo, box_hi);
   const int threads = std::max(1, omp_get_max_threads());
-  Accumulator acc(box, threads);
+  Accumulator acc(box, threads, budget);
 
   // Pass 1: the truncation band around every point. Pass 2: free space in front of the band.
   // A thread's carving depends only on the band blocks it owns itself, so the threads never wait for one another:

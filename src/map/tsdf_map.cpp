@@ -1,10 +1,14 @@
 #include "tsdf_mcl/tsdf_map.hpp"
 
+#include "tsdf_mcl/map_lookup.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
+#include "tsdf_mcl/checked_math.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/limits.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -23,31 +27,73 @@ std::int16_t word_half(std::uint32_t word, int l) {
 TsdfMap::TsdfMap(float voxel_size, float truncation, const Eigen::Vector3i& min_block,
                  const Eigen::Vector3i& dims_blocks)
     : voxel_size_(voxel_size), truncation_(truncation), min_block_(min_block), dims_blocks_(dims_blocks) {
-  if (!(voxel_size > 0.0f) || !std::isfinite(voxel_size)) throw Error("voxel size must be positive");
-  if (!(truncation >= voxel_size) || !std::isfinite(truncation)) {
-    throw Error("truncation must be at least one voxel");
-  }
-  if ((dims_blocks.array() <= 0).any()) throw Error("map must span at least one block per axis");
-  const double cells = static_cast<double>(dims_blocks.x()) * dims_blocks.y() * dims_blocks.z();
-  if (cells > 256.0 * 1024 * 1024) throw Error("map bounding box too large (more than 2^28 blocks)");
-  coarse_.assign(static_cast<std::size_t>(cells), kUnknownBlock);
+  validate_geometry(voxel_size, truncation, min_block, dims_blocks);
+  coarse_.assign(static_cast<std::size_t>(dims_blocks.cast<std::uint64_t>().prod()), kUnknownBlock);
 }
 
-TsdfMap TsdfMap::covering(float voxel_size, float truncation, const Eigen::Vector3f& world_min,
-                          const Eigen::Vector3f& world_max) {
+void TsdfMap::validate_geometry(float voxel_size, float truncation, const Eigen::Vector3i& min_block,
+                                const Eigen::Vector3i& dims_blocks) {
+  if (!(voxel_size >= limits::kMinVoxelSize && voxel_size <= limits::kMaxVoxelSize)) {
+    throw Error("voxel size " + std::to_string(voxel_size) + " m is outside the supported range [" +
+                std::to_string(limits::kMinVoxelSize) + ", " + std::to_string(limits::kMaxVoxelSize) + "] m");
+  }
+  if (!(truncation >= voxel_size)) throw Error("truncation must be at least one voxel");
+  if (!(truncation <= limits::kMaxTruncationVoxels * voxel_size)) {
+    throw Error("truncation " + std::to_string(truncation) + " m is more than " +
+                std::to_string(static_cast<int>(limits::kMaxTruncationVoxels)) + " voxels");
+  }
+  if ((dims_blocks.array() <= 0).any()) throw Error("map must span at least one block per axis");
+  // In 64 bits: the header's values may be anywhere in int32.
+  std::uint64_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const std::int64_t first = std::int64_t{min_block[a]} * kBlockSize;
+    const std::int64_t end = (std::int64_t{min_block[a]} + dims_blocks[a]) * kBlockSize;
+    if (first < -limits::kMaxAbsVoxelIndex || end > limits::kMaxAbsVoxelIndex) {
+      throw Error("map box reaches voxel index " + std::to_string(first < -limits::kMaxAbsVoxelIndex ? first : end) +
+                  ", beyond the supported +-2^24 (" +
+                  std::to_string(static_cast<double>(limits::kMaxAbsVoxelIndex) * voxel_size / 1000.0) +
+                  " km from the origin at this voxel size)");
+    }
+    cells *= static_cast<std::uint64_t>(dims_blocks[a]);
+  }
+  if (cells > limits::kMaxCoarseCells) throw Error("map bounding box too large (more than 2^28 blocks)");
+}
+
+void TsdfMap::block_box(float voxel_size, float truncation, const Eigen::Vector3f& world_min,
+                        const Eigen::Vector3f& world_max, Eigen::Vector3i& min_block, Eigen::Vector3i& dims_blocks) {
   if (!world_min.allFinite() || !world_max.allFinite() || (world_max.array() < world_min.array()).any()) {
     throw Error("invalid map bounds");
   }
-  if (!(voxel_size > 0.0f)) throw Error("voxel size must be positive");
+  validate_geometry(voxel_size, truncation, Eigen::Vector3i::Zero(), Eigen::Vector3i::Ones());
   Eigen::Vector3i lo, hi;
   for (int a = 0; a < 3; ++a) {
     const double vlo = std::floor(world_min[a] / voxel_size + 0.5);
     const double vhi = std::floor(world_max[a] / voxel_size + 0.5);
-    if (std::abs(vlo) > 1e9 || std::abs(vhi) > 1e9) throw Error("map bounds too far from the origin");
+    if (std::abs(vlo) > limits::kMaxAbsVoxelIndex || std::abs(vhi) > limits::kMaxAbsVoxelIndex) {
+      throw Error("map bounds reach " + std::to_string(std::max(std::abs(world_min[a]), std::abs(world_max[a]))) +
+                  " m from the origin, beyond the supported +-2^24 voxels (" +
+                  std::to_string(static_cast<double>(limits::kMaxAbsVoxelIndex) * voxel_size / 1000.0) + " km)");
+    }
     lo[a] = floor_div(static_cast<int>(vlo), kBlockSize);
     hi[a] = floor_div(static_cast<int>(vhi), kBlockSize);
   }
-  return TsdfMap(voxel_size, truncation, lo, (hi - lo).array() + 1);
+  min_block = lo;
+  dims_blocks = (hi - lo).array() + 1;
+  validate_geometry(voxel_size, truncation, min_block, dims_blocks);
+}
+
+std::uint64_t TsdfMap::box_cells(float voxel_size, float truncation, const Eigen::Vector3f& world_min,
+                                 const Eigen::Vector3f& world_max) {
+  Eigen::Vector3i min_block, dims;
+  block_box(voxel_size, truncation, world_min, world_max, min_block, dims);
+  return dims.cast<std::uint64_t>().prod();
+}
+
+TsdfMap TsdfMap::covering(float voxel_size, float truncation, const Eigen::Vector3f& world_min,
+                          const Eigen::Vector3f& world_max) {
+  Eigen::Vector3i min_block, dims;
+  block_box(voxel_size, truncation, world_min, world_max, min_block, dims);
+  return TsdfMap(voxel_size, truncation, min_block, dims);
 }
 
 TsdfMap TsdfMap::from_buffers(float voxel_size, float truncation, const Eigen::Vector3i& min_block,
@@ -69,14 +115,11 @@ TsdfMap TsdfMap::from_buffers(float voxel_size, float truncation, const Eigen::V
 
 Eigen::Vector3i TsdfMap::voxel_of(const Eigen::Vector3f& world) const {
   const float inv = 1.0f / voxel_size_;
-  return Eigen::Vector3i(static_cast<int>(std::floor(world.x() * inv + 0.5f)),
-                         static_cast<int>(std::floor(world.y() * inv + 0.5f)),
-                         static_cast<int>(std::floor(world.z() * inv + 0.5f)));
+  return Eigen::Vector3i(io::saturated_floor(world.x() * inv + 0.5f), io::saturated_floor(world.y() * inv + 0.5f),
+                         io::saturated_floor(world.z() * inv + 0.5f));
 }
 
-Eigen::Vector3f TsdfMap::center_of(const Eigen::Vector3i& voxel) const {
-  return voxel.cast<float>() * voxel_size_;
-}
+Eigen::Vector3f TsdfMap::center_of(const Eigen::Vector3i& voxel) const { return voxel.cast<float>() * voxel_size_; }
 
 Eigen::Vector3i TsdfMap::block_of(const Eigen::Vector3i& voxel) {
   return {floor_div(voxel.x(), kBlockSize), floor_div(voxel.y(), kBlockSize), floor_div(voxel.z(), kBlockSize)};
@@ -90,7 +133,8 @@ int TsdfMap::local_index(const Eigen::Vector3i& voxel) {
 std::int64_t TsdfMap::coarse_cell(const Eigen::Vector3i& block) const {
   const Eigen::Vector3i c = block - min_block_;
   if ((c.array() < 0).any() || (c.array() >= dims_blocks_.array()).any()) return -1;
-  return c.x() + static_cast<std::int64_t>(dims_blocks_.x()) * (c.y() + static_cast<std::int64_t>(dims_blocks_.y()) * c.z());
+  return c.x() +
+         static_cast<std::int64_t>(dims_blocks_.x()) * (c.y() + static_cast<std::int64_t>(dims_blocks_.y()) * c.z());
 }
 
 std::uint32_t TsdfMap::block_entry(const Eigen::Vector3i& block) const {
@@ -155,14 +199,16 @@ void TsdfMap::set_block(const Eigen::Vector3i& block, const std::array<std::int1
   if (cell < 0) throw Error("block outside the map's bounding box");
   const std::size_t base = static_cast<std::size_t>(allocate_block(cell)) * kWordsPerBlock;
   for (int w = 0; w < kWordsPerBlock; ++w) {
-    pool_[base + static_cast<std::size_t>(w)] = static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w)]) |
-                                                (static_cast<std::uint32_t>(static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w + 1)])) << 16);
+    pool_[base + static_cast<std::size_t>(w)] =
+        static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w)]) |
+        (static_cast<std::uint32_t>(static_cast<std::uint16_t>(values[static_cast<std::size_t>(2 * w + 1)])) << 16);
   }
 }
 
 void TsdfMap::mark_block_free(const Eigen::Vector3i& block) {
   const std::int64_t cell = coarse_cell(block);
-  if (cell >= 0 && coarse_[static_cast<std::size_t>(cell)] == kUnknownBlock) coarse_[static_cast<std::size_t>(cell)] = kFreeBlock;
+  if (cell >= 0 && coarse_[static_cast<std::size_t>(cell)] == kUnknownBlock)
+    coarse_[static_cast<std::size_t>(cell)] = kFreeBlock;
 }
 
 void TsdfMap::compact() {
@@ -188,31 +234,21 @@ void TsdfMap::compact() {
   pool_ = std::move(pool);
 }
 
+// The sensor update's own lookup (tsdf_mcl/map_lookup.hpp), so that a sample here is what a particle sees.
 TsdfMap::Sample TsdfMap::nearest(const Eigen::Vector3f& world) const {
-  const std::int16_t q = quantized(voxel_of(world));
+  const kernel::MapView view(*this);
+  const float g[3] = {world.x() * view.inv_voxel, world.y() * view.inv_voxel, world.z() * view.inv_voxel};
+  const std::int32_t q = kernel::sample_nearest(view, g);
   if (q == kUnknownValue) return {};
-  return {true, dequantize(q)};
+  return {true, static_cast<float>(q) * view.quant_step};
 }
 
 TsdfMap::Sample TsdfMap::trilinear(const Eigen::Vector3f& world) const {
-  const float inv = 1.0f / voxel_size_;
-  const Eigen::Vector3f g = world * inv;
-  const Eigen::Vector3f base(std::floor(g.x()), std::floor(g.y()), std::floor(g.z()));
-  const Eigen::Vector3f f = g - base;
-  const Eigen::Vector3i v0 = base.cast<int>();
-  float weight = 0.0f;
-  float sum = 0.0f;
-  for (int corner = 0; corner < 8; ++corner) {
-    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-    const std::int16_t q = quantized(v0 + Eigen::Vector3i(dx, dy, dz));
-    if (q == kUnknownValue) continue;
-    const float w = (dx ? f.x() : 1.0f - f.x()) * (dy ? f.y() : 1.0f - f.y()) * (dz ? f.z() : 1.0f - f.z());
-    weight += w;
-    sum += w * static_cast<float>(q);
-  }
-  // Below this the known corners carry almost no weight: the point is effectively in unknown space.
-  if (weight < 1e-3f) return {};
-  return {true, sum / weight * quantization_step()};
+  const kernel::MapView view(*this);
+  const float g[3] = {world.x() * view.inv_voxel, world.y() * view.inv_voxel, world.z() * view.inv_voxel};
+  Sample s;
+  s.known = kernel::sample_trilinear(view, g, &s.distance);
+  return s.known ? s : Sample{};
 }
 
 Eigen::Vector3f TsdfMap::world_min() const {

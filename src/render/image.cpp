@@ -1,141 +1,284 @@
 #include "tsdf_mcl/image.hpp"
 
-#include <stb_easy_font.h>
-#include <stb_image.h>
-#include <stb_image_write.h>
+#include <cairo.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
+#include "tsdf_mcl/checked_math.hpp"
+#include "clip.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/input_file.hpp"
 
 namespace tsdf_mcl {
+
+using Box = Eigen::AlignedBox2d;
+
+// Cairo draws on an image's 0x00RRGGBB copy of its pixels; every change is copied into the RGB rows at once.
+struct detail::ImageAccess {
+  static std::uint32_t* xrgb(Image& image, int x, int y) {
+    return image.xrgb_.data() + static_cast<std::size_t>(y) * image.width_ + x;
+  }
+  static const std::uint32_t* xrgb(const Image& image) { return image.xrgb_.data(); }
+  static Eigen::Vector4i clip(const Image& image) {
+    return {image.clip_x0_, image.clip_y0_, image.clip_x1_, image.clip_y1_};
+  }
+  // Copies the 0x00RRGGBB pixels x0 <= x < x1, y0 <= y < y1 into the RGB rows.
+  static void sync(Image& image, int x0, int y0, int x1, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::size_t row = static_cast<std::size_t>(y) * image.width_;
+      for (std::size_t i = row + x0; i < row + x1; ++i) {
+        const std::uint32_t p = image.xrgb_[i];
+        image.pixels_[3 * i] = static_cast<std::uint8_t>(p >> 16);
+        image.pixels_[3 * i + 1] = static_cast<std::uint8_t>(p >> 8);
+        image.pixels_[3 * i + 2] = static_cast<std::uint8_t>(p);
+      }
+    }
+  }
+};
+
 namespace {
 
-constexpr int kMaxImageSide = 32768;
+using detail::ImageAccess;
 
-float clamp01(float v) { return std::clamp(v, 0.0f, 1.0f); }
+constexpr double kQuarterTurn = 1.5707963267948966;
+// Cairo turns path coordinates into 24.8 fixed point, which ends at 2^23 pixels; paths are clipped well inside.
+constexpr double kMaxPathCoordinate = 1 << 21;
 
-float distance_to_segment(const Eigen::Vector2f& p, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
-  const Eigen::Vector2f ab = b - a;
-  const float len2 = ab.squaredNorm();
-  const float t = len2 > 0.0f ? std::clamp((p - a).dot(ab) / len2, 0.0f, 1.0f) : 0.0f;
-  return (p - (a + t * ab)).norm();
-}
+float clamp01(float v) { return v > 0.0f ? std::min(v, 1.0f) : 0.0f; }  // NaN gives 0
 
-// Per-pixel coverage of one shape over its bounding box, merged by maximum and blended once: overlapping parts of a
-// shape (polyline joints, the strokes of a glyph) would otherwise be composited twice and show as darker spots.
-class CoverageMask {
+// One drawing operation: a Cairo context over the part of the image that the operation may touch (its bounds,
+// within the clip rectangle), in image pixel coordinates. Cairo cannot draw outside that part, which is copied into
+// the image's RGB rows when the operation ends, so the two copies of the pixels always agree.
+class Canvas {
  public:
-  CoverageMask(const Image& image, float x0, float y0, float x1, float y1) {
-    x0_ = std::max(0, static_cast<int>(std::floor(x0)));
-    y0_ = std::max(0, static_cast<int>(std::floor(y0)));
-    x1_ = std::min(image.width(), static_cast<int>(std::ceil(x1)));
-    y1_ = std::min(image.height(), static_cast<int>(std::ceil(y1)));
-    if (x1_ > x0_ && y1_ > y0_) coverage_.assign(static_cast<std::size_t>(x1_ - x0_) * (y1_ - y0_), 0.0f);
+  Canvas(Image& image, const Box& bounds) : image_(image) {
+    if (image.empty() || !(bounds.min().array() <= bounds.max().array()).all()) return;  // empty or NaN
+    const Eigen::Vector4i clip = ImageAccess::clip(image);
+    x0_ = std::max(clip[0], io::saturated_floor(bounds.min().x()));
+    y0_ = std::max(clip[1], io::saturated_floor(bounds.min().y()));
+    x1_ = std::min(clip[2], io::saturated_ceil(bounds.max().x()));
+    y1_ = std::min(clip[3], io::saturated_ceil(bounds.max().y()));
+    if (x1_ <= x0_ || y1_ <= y0_) return;
+    // A surface over just this part keeps Cairo's device coordinates small and its work within the part.
+    surface_ = cairo_image_surface_create_for_data(reinterpret_cast<unsigned char*>(ImageAccess::xrgb(image, x0_, y0_)),
+                                                   CAIRO_FORMAT_RGB24, x1_ - x0_, y1_ - y0_, image.width() * 4);
+    cr_ = cairo_create(surface_);
+    cairo_translate(cr_, -x0_, -y0_);
+  }
+  Canvas(const Canvas&) = delete;
+  Canvas& operator=(const Canvas&) = delete;
+  ~Canvas() {
+    if (!cr_) return;
+    cairo_destroy(cr_);
+    cairo_surface_destroy(surface_);
+    ImageAccess::sync(image_, x0_, y0_, x1_, y1_);
   }
 
-  int x0() const { return x0_; }
-  int y0() const { return y0_; }
-  int x1() const { return x1_; }
-  int y1() const { return y1_; }
-
-  void add(int x, int y, float c) {
-    if (x < x0_ || x >= x1_ || y < y0_ || y >= y1_ || c <= 0.0f) return;
-    float& cell = coverage_[static_cast<std::size_t>(y - y0_) * (x1_ - x0_) + (x - x0_)];
-    cell = std::max(cell, std::min(c, 1.0f));
+  explicit operator bool() const { return cr_ != nullptr; }
+  cairo_t* cr() const { return cr_; }
+  // The part grown by margin pixels: coordinates are clipped to it, so shapes cut there end out of sight.
+  Box guard(double margin) const {
+    return Box(Eigen::Vector2d(x0_ - margin, y0_ - margin), Eigen::Vector2d(x1_ + margin, y1_ + margin));
   }
-
-  void add_capsule(const Eigen::Vector2f& a, const Eigen::Vector2f& b, float radius) {
-    const int xa = std::max(x0_, static_cast<int>(std::floor(std::min(a.x(), b.x()) - radius - 1.0f)));
-    const int xb = std::min(x1_, static_cast<int>(std::ceil(std::max(a.x(), b.x()) + radius + 1.0f)));
-    const int ya = std::max(y0_, static_cast<int>(std::floor(std::min(a.y(), b.y()) - radius - 1.0f)));
-    const int yb = std::min(y1_, static_cast<int>(std::ceil(std::max(a.y(), b.y()) + radius + 1.0f)));
-    for (int y = ya; y < yb; ++y) {
-      for (int x = xa; x < xb; ++x) {
-        const Eigen::Vector2f p(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
-        add(x, y, radius + 0.5f - distance_to_segment(p, a, b));
-      }
-    }
-  }
-
-  void add_rect(float x0, float y0, float x1, float y1) {
-    const int xa = std::max(x0_, static_cast<int>(std::floor(x0)));
-    const int xb = std::min(x1_, static_cast<int>(std::ceil(x1)));
-    const int ya = std::max(y0_, static_cast<int>(std::floor(y0)));
-    const int yb = std::min(y1_, static_cast<int>(std::ceil(y1)));
-    for (int y = ya; y < yb; ++y) {
-      const float cy = clamp01(std::min(static_cast<float>(y + 1), y1) - std::max(static_cast<float>(y), y0));
-      for (int x = xa; x < xb; ++x) {
-        const float cx = clamp01(std::min(static_cast<float>(x + 1), x1) - std::max(static_cast<float>(x), x0));
-        add(x, y, cx * cy);
-      }
-    }
-  }
-
-  void blend_into(Image& image, Rgb color, float alpha) const {
-    if (coverage_.empty()) return;
-    for (int y = y0_; y < y1_; ++y) {
-      for (int x = x0_; x < x1_; ++x) {
-        const float c = coverage_[static_cast<std::size_t>(y - y0_) * (x1_ - x0_) + (x - x0_)];
-        if (c > 0.0f) image.blend_pixel(x, y, color, c * alpha);
-      }
-    }
+  void set_color(Rgb color, float alpha) const {
+    cairo_set_source_rgba(cr_, color.r / 255.0, color.g / 255.0, color.b / 255.0, clamp01(alpha));
   }
 
  private:
+  Image& image_;
   int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
-  std::vector<float> coverage_;
+  cairo_surface_t* surface_ = nullptr;
+  cairo_t* cr_ = nullptr;
 };
 
-// A mask over the bounding box of a polyline's finite points, grown by the stroke radius (plus a pixel of
-// anti-aliasing).
-CoverageMask mask_around(const Image& image, const std::vector<Eigen::Vector2f>& points, float r) {
-  Eigen::Vector2f lo = points.front(), hi = points.front();
+Box finite_bounds(const std::vector<Eigen::Vector2f>& points) {
+  Box box;
   for (const auto& p : points) {
-    if (!p.allFinite()) continue;
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
+    if (p.allFinite()) box.extend(p.cast<double>());
   }
-  return CoverageMask(image, lo.x() - r - 1.0f, lo.y() - r - 1.0f, hi.x() + r + 1.0f, hi.y() + r + 1.0f);
+  return box;
 }
 
-// Lines thinner than a pixel are drawn one pixel wide and correspondingly fainter, which keeps their apparent
-// weight and avoids broken, aliased hairlines.
-void thin_line_compensation(float& width, float& alpha) {
-  if (width < 1.0f) {
-    alpha *= std::max(width, 0.0f);
-    width = 1.0f;
+Box grown(const Box& box, double by) {
+  return box.isEmpty() ? box : Box(box.min().array() - by, box.max().array() + by);
+}
+
+// Round caps and joins; returns the width set: a stroke four canvases wide covers all of the canvas, and wider
+// ones would only overflow Cairo's coordinates.
+double setup_stroke(const Canvas& canvas, float width) {
+  const double w = std::min<double>(width, 4.0 * canvas.guard(0.0).sizes().maxCoeff());
+  cairo_set_line_width(canvas.cr(), w);
+  cairo_set_line_cap(canvas.cr(), CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_join(canvas.cr(), CAIRO_LINE_JOIN_ROUND);
+  return w;
+}
+
+// The polyline's finite runs as subpaths, each segment cut to the guard box. A finite point without finite
+// neighbours becomes a subpath of zero length, which round caps draw as a dot.
+void add_polyline(cairo_t* cr, const std::vector<Eigen::Vector2f>& points, const Box& guard) {
+  bool open = false;  // the current subpath ends at points[i]
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d a = points[i].cast<double>();
+    const bool next = i + 1 < points.size() && points[i + 1].allFinite();
+    if (!a.allFinite() || !next) {
+      if (a.allFinite() && !open && guard.contains(a)) {
+        cairo_move_to(cr, a.x(), a.y());
+        cairo_line_to(cr, a.x(), a.y());
+      }
+      open = false;
+      continue;
+    }
+    const Eigen::Vector2d b = points[i + 1].cast<double>();
+    Eigen::Vector2d from = a, to = b;
+    if (!render::clip_segment(from, to, guard.min(), guard.max())) {
+      open = false;
+      continue;
+    }
+    if (!open) cairo_move_to(cr, from.x(), from.y());
+    cairo_line_to(cr, to.x(), to.y());
+    open = to == b;
   }
 }
 
-std::string printable(const std::string& text) {
-  std::string out = text;
-  for (char& c : out) {
-    if (c != '\n' && (c < 32 || c > 126)) c = '?';
-  }
-  return out;
+// Circles whose path would leave Cairo's coordinate range (millions of pixels) are not drawn as paths.
+bool drawable_circle(const Eigen::Vector2d& center, double reach) {
+  return (center.array().abs() + reach).maxCoeff() < kMaxPathCoordinate;
 }
 
-// stb_easy_font geometry: capitals span 7 units below the pen's y, descenders 2 more, lines are 12 apart and every
-// glyph's advance leaves 2 units of space after it.
+// --- Text ---------------------------------------------------------------------------------------------------------
+
+// Layout in font units, as the old bitmap font had them: capitals 7 units high, lines 12 units apart.
 constexpr float kCapHeight = 7.0f;
-constexpr float kDescender = 2.0f;
 constexpr float kLineAdvance = 12.0f;
-constexpr float kTrailingSpace = 2.0f;
+// Metrics are measured at this font size (pixels) and scale linearly: metric hinting is off.
+constexpr double kReferenceSize = 100.0;
 
-int line_count(const std::string& text) { return 1 + static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
+// The text face and its metrics in font units. Where fontconfig finds no font at all, Cairo sets text in a built-in
+// one; should even that fail, text keeps its place in layouts (DejaVu Sans' metrics, an estimated width) undrawn.
+struct Font {
+  cairo_font_face_t* face = nullptr;
+  cairo_font_options_t* options = nullptr;
+  cairo_scaled_font_t* reference = nullptr;   // the face at kReferenceSize, for measuring
+  double size_per_unit = kCapHeight / 0.729;  // font size (em) per font unit: DejaVu's capitals are 0.729 em high
+  double ascent = 7.34;                       // ascenders' tops above the baseline
+  double descent = 2.27;                      // descenders' bottoms below it
+};
 
-Eigen::Vector2f font_units_size(std::string& text) {
-  if (text.empty()) return Eigen::Vector2f::Zero();
-  const float width = std::max(0.0f, static_cast<float>(stb_easy_font_width(text.data())) - kTrailingSpace);
-  const float height = static_cast<float>(line_count(text) - 1) * kLineAdvance + kCapHeight + kDescender;
-  return {width, height};
+const Font& font() {
+  static const Font instance = [] {
+    Font f;
+    f.options = cairo_font_options_create();
+    // Grey anti-aliasing (no colour fringes), outlines fitted to the pixel grid vertically, advances unhinted so
+    // that a text's size is proportional to its scale and the same in both orientations.
+    cairo_font_options_set_antialias(f.options, CAIRO_ANTIALIAS_GRAY);
+    cairo_font_options_set_hint_style(f.options, CAIRO_HINT_STYLE_SLIGHT);
+    cairo_font_options_set_hint_metrics(f.options, CAIRO_HINT_METRICS_OFF);
+    cairo_matrix_t size, identity;
+    cairo_matrix_init_scale(&size, kReferenceSize, kReferenceSize);
+    cairo_matrix_init_identity(&identity);
+    // Fontconfig substitutes its sans-serif default for a missing DejaVu Sans; "sans-serif" itself is the fallback
+    // should the first face fail outright.
+    for (const char* family : {"DejaVu Sans", "sans-serif"}) {
+      cairo_font_face_t* face = cairo_toy_font_face_create(family, CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+      cairo_scaled_font_t* scaled = cairo_scaled_font_create(face, &size, &identity, f.options);
+      cairo_text_extents_t cap{}, up{}, down{};
+      cairo_scaled_font_text_extents(scaled, "H", &cap);
+      cairo_scaled_font_text_extents(scaled, "bdfhkl()|", &up);
+      cairo_scaled_font_text_extents(scaled, "gjpqy()|", &down);
+      if (cairo_scaled_font_status(scaled) == CAIRO_STATUS_SUCCESS && cap.height > 0.0) {
+        f.face = face;
+        f.reference = scaled;
+        f.size_per_unit = kCapHeight / (cap.height / kReferenceSize);
+        const double units_per_pixel = kCapHeight / cap.height;
+        f.ascent = std::max<double>(kCapHeight, -up.y_bearing * units_per_pixel);
+        f.descent = std::max(0.0, (down.y_bearing + down.height) * units_per_pixel);
+        break;
+      }
+      cairo_scaled_font_destroy(scaled);
+      cairo_font_face_destroy(face);
+    }
+    return f;
+  }();
+  return instance;
+}
+
+// Valid UTF-8 with control characters and malformed bytes replaced by '?' (Cairo refuses invalid UTF-8), split
+// into lines.
+std::vector<std::string> text_lines(const std::string& text) {
+  std::vector<std::string> lines(1);
+  for (std::size_t i = 0; i < text.size();) {
+    const auto lead = static_cast<unsigned char>(text[i]);
+    if (lead == '\n') {
+      lines.emplace_back();
+      ++i;
+      continue;
+    }
+    const std::size_t n = lead < 0x80                    ? 1
+                          : lead >= 0xC2 && lead <= 0xDF ? 2
+                          : lead >= 0xE0 && lead <= 0xEF ? 3
+                          : lead >= 0xF0 && lead <= 0xF4 ? 4
+                                                         : 0;
+    std::uint32_t code = n == 1 ? lead : lead & (0x7Fu >> n);
+    bool valid = n > 0 && i + n <= text.size();
+    for (std::size_t k = 1; valid && k < n; ++k) {
+      const auto c = static_cast<unsigned char>(text[i + k]);
+      valid = (c & 0xC0) == 0x80;
+      code = (code << 6) | (c & 0x3Fu);
+    }
+    valid = valid && !(n == 3 && code < 0x800) && !(n == 4 && (code < 0x10000 || code > 0x10FFFF)) &&
+            !(code >= 0xD800 && code <= 0xDFFF);
+    const bool control = code < 0x20 || (code >= 0x7F && code < 0xA0);
+    if (valid && !control)
+      lines.back().append(text, i, n);
+    else
+      lines.back() += '?';
+    i += valid ? n : 1;
+  }
+  return lines;
+}
+
+// A text laid out in pixels at one scale; v runs down across the lines from the box's top, u along them.
+struct TextLayout {
+  std::vector<std::string> lines;
+  double font_size = 0.0;  // pixels per em
+  double pen = 0.0;        // u of each line's start: glyphs reaching left of their origin stay in the box
+  double first_baseline = 0.0;
+  double line_advance = 0.0;
+  Eigen::Vector2f size = Eigen::Vector2f::Zero();
+};
+
+TextLayout layout_text(const std::string& text, float scale) {
+  TextLayout t;
+  if (text.empty() || !(scale > 0.0f)) return t;
+  const Font& f = font();
+  t.lines = text_lines(text);
+  t.font_size = scale * f.size_per_unit;
+  t.first_baseline = scale * f.ascent;
+  t.line_advance = scale * kLineAdvance;
+  double overhang = 0.0, right = 0.0;  // at the reference size
+  for (const std::string& line : t.lines) {
+    cairo_text_extents_t e{};
+    if (f.reference)
+      cairo_scaled_font_text_extents(f.reference, line.c_str(), &e);
+    else
+      e.x_advance = 0.55 * kReferenceSize * static_cast<double>(line.size());
+    overhang = std::max(overhang, -e.x_bearing);
+    right = std::max({right, e.x_advance, e.x_bearing + e.width});
+  }
+  const double pixels_per_reference = t.font_size / kReferenceSize;
+  t.pen = overhang * pixels_per_reference;
+  const double height = f.ascent + static_cast<double>(t.lines.size() - 1) * kLineAdvance + f.descent;
+  t.size = Eigen::Vector2d((overhang + right) * pixels_per_reference, scale * height).cast<float>();
+  return t;
 }
 
 }  // namespace
@@ -161,10 +304,9 @@ Rgb viridis(float t) {
 }
 
 Rgb palette_color(std::size_t i) {
-  static constexpr std::array<Rgb, 10> kTab10 = {rgb_hex(0x1f77b4), rgb_hex(0xff7f0e), rgb_hex(0x2ca02c),
-                                                 rgb_hex(0xd62728), rgb_hex(0x9467bd), rgb_hex(0x8c564b),
-                                                 rgb_hex(0xe377c2), rgb_hex(0x7f7f7f), rgb_hex(0xbcbd22),
-                                                 rgb_hex(0x17becf)};
+  static constexpr std::array<Rgb, 10> kTab10 = {
+      rgb_hex(0x1f77b4), rgb_hex(0xff7f0e), rgb_hex(0x2ca02c), rgb_hex(0xd62728), rgb_hex(0x9467bd),
+      rgb_hex(0x8c564b), rgb_hex(0xe377c2), rgb_hex(0x7f7f7f), rgb_hex(0xbcbd22), rgb_hex(0x17becf)};
   return kTab10[i % kTab10.size()];
 }
 
@@ -176,6 +318,7 @@ Image::Image(int width, int height, Rgb background) {
   width_ = width;
   height_ = height;
   pixels_.resize(static_cast<std::size_t>(width) * height * 3);
+  xrgb_.resize(static_cast<std::size_t>(width) * height);
   reset_clip();
   fill(background);
 }
@@ -200,19 +343,16 @@ void Image::reset_clip() { set_clip(0, 0, width_, height_); }
 
 void Image::set_pixel(int x, int y, Rgb color) {
   if (x < clip_x0_ || x >= clip_x1_ || y < clip_y0_ || y >= clip_y1_) return;
-  const std::size_t i = (static_cast<std::size_t>(y) * width_ + x) * 3;
-  pixels_[i] = color.r;
-  pixels_[i + 1] = color.g;
-  pixels_[i + 2] = color.b;
+  const std::size_t i = static_cast<std::size_t>(y) * width_ + x;
+  pixels_[3 * i] = color.r;
+  pixels_[3 * i + 1] = color.g;
+  pixels_[3 * i + 2] = color.b;
+  xrgb_[i] = std::uint32_t{color.r} << 16 | std::uint32_t{color.g} << 8 | color.b;
 }
 
 void Image::blend_pixel(int x, int y, Rgb color, float alpha) {
   if (x < clip_x0_ || x >= clip_x1_ || y < clip_y0_ || y >= clip_y1_ || !(alpha > 0.0f)) return;
-  const std::size_t i = (static_cast<std::size_t>(y) * width_ + x) * 3;
-  const Rgb blended = mix({pixels_[i], pixels_[i + 1], pixels_[i + 2]}, color, alpha);
-  pixels_[i] = blended.r;
-  pixels_[i + 1] = blended.g;
-  pixels_[i + 2] = blended.b;
+  set_pixel(x, y, mix(at(x, y), color, alpha));
 }
 
 void Image::fill(Rgb color) {
@@ -222,23 +362,35 @@ void Image::fill(Rgb color) {
 }
 
 void Image::fill_rect(float x0, float y0, float x1, float y1, Rgb color, float alpha) {
-  if (x1 < x0) std::swap(x0, x1);
-  if (y1 < y0) std::swap(y0, y1);
-  CoverageMask mask(*this, x0, y0, x1, y1);
-  mask.add_rect(x0, y0, x1, y1);
-  mask.blend_into(*this, color, alpha);
+  if (std::isnan(x0) || std::isnan(y0) || std::isnan(x1) || std::isnan(y1)) return;
+  const Box box(Eigen::Vector2d(std::min(x0, x1), std::min(y0, y1)),
+                Eigen::Vector2d(std::max(x0, x1), std::max(y0, y1)));
+  const Canvas canvas(*this, box);
+  if (!canvas) return;
+  // Clamping an axis-aligned rectangle to the guard box changes nothing that shows.
+  const Box r = box.intersection(canvas.guard(1.0));
+  canvas.set_color(color, alpha);
+  cairo_rectangle(canvas.cr(), r.min().x(), r.min().y(), r.sizes().x(), r.sizes().y());
+  cairo_fill(canvas.cr());
 }
 
 void Image::stroke_rect(float x0, float y0, float x1, float y1, Rgb color, float width) {
   if (x1 < x0) std::swap(x0, x1);
   if (y1 < y0) std::swap(y0, y1);
   width = std::min({width, (x1 - x0) / 2.0f, (y1 - y0) / 2.0f});
-  CoverageMask mask(*this, x0, y0, x1, y1);
-  mask.add_rect(x0, y0, x1, y0 + width);
-  mask.add_rect(x0, y1 - width, x1, y1);
-  mask.add_rect(x0, y0, x0 + width, y1);
-  mask.add_rect(x1 - width, y0, x1, y1);
-  mask.blend_into(*this, color, 1.0f);
+  if (!(width > 0.0f)) return;
+  const Box outer(Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y1));
+  const Canvas canvas(*this, outer);
+  if (!canvas) return;
+  // The ring between the rectangle and the one inset by the width: even-odd fill of both.
+  const Box guard = canvas.guard(2.0);
+  const Box a = outer.intersection(guard);
+  const Box b = Box(outer.min().array() + width, outer.max().array() - width).intersection(guard);
+  canvas.set_color(color, 1.0f);
+  cairo_set_fill_rule(canvas.cr(), CAIRO_FILL_RULE_EVEN_ODD);
+  cairo_rectangle(canvas.cr(), a.min().x(), a.min().y(), a.sizes().x(), a.sizes().y());
+  if (!b.isEmpty()) cairo_rectangle(canvas.cr(), b.min().x(), b.min().y(), b.sizes().x(), b.sizes().y());
+  cairo_fill(canvas.cr());
 }
 
 void Image::draw_line(const Eigen::Vector2f& a, const Eigen::Vector2f& b, Rgb color, float width, float alpha) {
@@ -246,16 +398,14 @@ void Image::draw_line(const Eigen::Vector2f& a, const Eigen::Vector2f& b, Rgb co
 }
 
 void Image::draw_polyline(const std::vector<Eigen::Vector2f>& points, Rgb color, float width, float alpha) {
-  if (points.empty() || empty()) return;
-  thin_line_compensation(width, alpha);
-  const float r = width / 2.0f;
-  CoverageMask mask = mask_around(*this, points, r);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector2f& a = points[i];
-    const Eigen::Vector2f& b = i + 1 < points.size() ? points[i + 1] : points[i];
-    if (a.allFinite() && b.allFinite()) mask.add_capsule(a, b, r);
-  }
-  mask.blend_into(*this, color, alpha);
+  if (!(width > 0.0f)) return;
+  const Canvas canvas(*this, grown(finite_bounds(points), width / 2.0 + 1.0));
+  if (!canvas) return;
+  // One stroke for the whole polyline: Cairo covers its overlapping parts (joints) once.
+  canvas.set_color(color, alpha);
+  const Box guard = canvas.guard(setup_stroke(canvas, width) + 2.0);
+  add_polyline(canvas.cr(), points, guard);
+  cairo_stroke(canvas.cr());
 }
 
 void Image::draw_dashed_line(const Eigen::Vector2f& a, const Eigen::Vector2f& b, Rgb color, float width,
@@ -263,161 +413,132 @@ void Image::draw_dashed_line(const Eigen::Vector2f& a, const Eigen::Vector2f& b,
   draw_dashed_polyline({a, b}, color, width, dash_length, alpha);
 }
 
-void Image::draw_dashed_polyline(const std::vector<Eigen::Vector2f>& points, Rgb color, float width,
-                                 float dash_length, float alpha) {
-  if (points.empty() || empty()) return;
-  if (!(dash_length > 0.0f)) {
+void Image::draw_dashed_polyline(const std::vector<Eigen::Vector2f>& points, Rgb color, float width, float dash_length,
+                                 float alpha) {
+  // Dashes shorter than half a pixel would look like a solid line anyway.
+  if (!(dash_length >= 0.5f)) {
     draw_polyline(points, color, width, alpha);
     return;
   }
-  thin_line_compensation(width, alpha);
-  const float r = width / 2.0f;
-  CoverageMask mask = mask_around(*this, points, r);
-  // Round caps add r at both ends of a dash; shortening the dash by them keeps dash and gap visibly equal.
-  const float cap = std::min(r, dash_length / 4.0f);
-  float phase = 0.0f;  // arc length since the start of the current dash-gap period
-  for (std::size_t i = 0; i + 1 < points.size(); ++i) {
-    const Eigen::Vector2f& a = points[i];
-    const Eigen::Vector2f& b = points[i + 1];
-    if (!a.allFinite() || !b.allFinite()) continue;
-    const float length = (b - a).norm();
-    if (length <= 0.0f) continue;
-    const Eigen::Vector2f dir = (b - a) / length;
-    float s = 0.0f;
-    while (s < length) {
-      const bool in_dash = phase < dash_length;
-      const float step = std::min(length - s, (in_dash ? dash_length : 2.0f * dash_length) - phase);
-      if (in_dash) {
-        const float dash_start = s - phase, dash_end = dash_start + dash_length;
-        const float from = std::max(s, dash_start + cap), to = std::min(s + step, dash_end - cap);
-        if (to >= from) mask.add_capsule(a + dir * from, a + dir * to, r);
-      }
-      s += step;
-      phase += step;
-      if (phase >= 2.0f * dash_length) phase = 0.0f;
-    }
-  }
-  mask.blend_into(*this, color, alpha);
+  if (!(width > 0.0f)) return;
+  const Canvas canvas(*this, grown(finite_bounds(points), width / 2.0 + 1.0));
+  if (!canvas) return;
+  canvas.set_color(color, alpha);
+  const Box guard = canvas.guard(setup_stroke(canvas, width) + 2.0);
+  // Round caps add `cap` at both ends of a dash; dashes shortened by them keep dash and gap visibly equal. The
+  // pattern starts in the gap, `cap` before the first dash.
+  const double cap = std::min(width / 2.0, dash_length / 4.0);
+  const double pattern[2] = {dash_length - 2.0 * cap, dash_length + 2.0 * cap};
+  cairo_set_dash(canvas.cr(), pattern, 2, 2.0 * dash_length - cap);
+  add_polyline(canvas.cr(), points, guard);
+  cairo_stroke(canvas.cr());
 }
 
 void Image::fill_circle(const Eigen::Vector2f& center, float radius, Rgb color, float alpha) {
-  if (empty() || !center.allFinite() || !(radius > 0.0f)) return;
-  // A disc smaller than a pixel keeps its area as opacity instead of vanishing between pixel centres.
-  if (radius < 0.5f) {
-    alpha *= (radius / 0.5f) * (radius / 0.5f);
-    radius = 0.5f;
+  if (!center.allFinite() || !(radius > 0.0f)) return;
+  const Eigen::Vector2d c = center.cast<double>();
+  const Canvas canvas(*this, grown(Box(c, c), radius + 1.0));
+  if (!canvas) return;
+  canvas.set_color(color, alpha);
+  if (!drawable_circle(c, radius)) {
+    const Box g = canvas.guard(0.0);  // drawn only where it covers all of the canvas
+    if ((g.min() - c).cwiseAbs().cwiseMax((g.max() - c).cwiseAbs()).norm() >= radius) return;
+    cairo_rectangle(canvas.cr(), g.min().x(), g.min().y(), g.sizes().x(), g.sizes().y());
+  } else {
+    cairo_arc(canvas.cr(), c.x(), c.y(), radius, 0.0, 4.0 * kQuarterTurn);
   }
-  const int x0 = static_cast<int>(std::floor(center.x() - radius - 1.0f));
-  const int x1 = static_cast<int>(std::ceil(center.x() + radius + 1.0f));
-  const int y0 = static_cast<int>(std::floor(center.y() - radius - 1.0f));
-  const int y1 = static_cast<int>(std::ceil(center.y() + radius + 1.0f));
-  for (int y = std::max(y0, clip_y0_); y < std::min(y1, clip_y1_); ++y) {
-    for (int x = std::max(x0, clip_x0_); x < std::min(x1, clip_x1_); ++x) {
-      const float d = (Eigen::Vector2f(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f) - center).norm();
-      const float c = clamp01(radius + 0.5f - d);
-      if (c > 0.0f) blend_pixel(x, y, color, c * alpha);
-    }
-  }
+  cairo_fill(canvas.cr());
 }
 
 void Image::stroke_circle(const Eigen::Vector2f& center, float radius, Rgb color, float width, float alpha) {
-  if (empty() || !center.allFinite() || !(radius > 0.0f)) return;
-  thin_line_compensation(width, alpha);
-  const float reach = radius + width / 2.0f + 1.0f;
-  for (int y = std::max(static_cast<int>(std::floor(center.y() - reach)), clip_y0_);
-       y < std::min(static_cast<int>(std::ceil(center.y() + reach)), clip_y1_); ++y) {
-    for (int x = std::max(static_cast<int>(std::floor(center.x() - reach)), clip_x0_);
-         x < std::min(static_cast<int>(std::ceil(center.x() + reach)), clip_x1_); ++x) {
-      const float d = (Eigen::Vector2f(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f) - center).norm();
-      const float c = clamp01(width / 2.0f + 0.5f - std::abs(d - radius));
-      if (c > 0.0f) blend_pixel(x, y, color, c * alpha);
-    }
-  }
+  if (!center.allFinite() || !(radius > 0.0f) || !(width > 0.0f)) return;
+  const Eigen::Vector2d c = center.cast<double>();
+  const Canvas canvas(*this, grown(Box(c, c), radius + width / 2.0 + 1.0));
+  if (!canvas) return;
+  if (!drawable_circle(c, radius + width / 2.0)) return;
+  canvas.set_color(color, alpha);
+  setup_stroke(canvas, width);
+  cairo_arc(canvas.cr(), c.x(), c.y(), radius, 0.0, 4.0 * kQuarterTurn);
+  cairo_stroke(canvas.cr());
 }
 
 void Image::fill_polygon(const std::vector<Eigen::Vector2f>& points, Rgb color, float alpha) {
-  if (points.size() < 3 || empty()) return;
+  std::vector<Eigen::Vector2d> polygon;
   for (const auto& p : points) {
-    if (!p.allFinite()) return;
+    if (p.allFinite()) polygon.push_back(p.cast<double>());
   }
-  Eigen::Vector2f lo = points.front(), hi = points.front();
-  for (const auto& p : points) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  auto inside = [&points](float px, float py) {
-    bool in = false;
-    for (std::size_t i = 0, j = points.size() - 1; i < points.size(); j = i++) {
-      const Eigen::Vector2f& a = points[i];
-      const Eigen::Vector2f& b = points[j];
-      if ((a.y() > py) != (b.y() > py) && px < (b.x() - a.x()) * (py - a.y()) / (b.y() - a.y()) + a.x()) in = !in;
-    }
-    return in;
-  };
-  constexpr int kSamples = 4;
-  for (int y = std::max(static_cast<int>(std::floor(lo.y())), clip_y0_);
-       y < std::min(static_cast<int>(std::ceil(hi.y())), clip_y1_); ++y) {
-    for (int x = std::max(static_cast<int>(std::floor(lo.x())), clip_x0_);
-         x < std::min(static_cast<int>(std::ceil(hi.x())), clip_x1_); ++x) {
-      int hits = 0;
-      for (int sy = 0; sy < kSamples; ++sy) {
-        for (int sx = 0; sx < kSamples; ++sx) {
-          hits += inside(static_cast<float>(x) + (static_cast<float>(sx) + 0.5f) / kSamples,
-                         static_cast<float>(y) + (static_cast<float>(sy) + 0.5f) / kSamples);
-        }
-      }
-      if (hits > 0) blend_pixel(x, y, color, alpha * static_cast<float>(hits) / (kSamples * kSamples));
-    }
-  }
+  if (polygon.size() < 3) return;
+  const Canvas canvas(*this, grown(finite_bounds(points), 1.0));
+  if (!canvas) return;
+  const Box guard = canvas.guard(2.0);
+  polygon = render::clip_polygon(std::move(polygon), guard.min(), guard.max());
+  if (polygon.empty()) return;
+  canvas.set_color(color, alpha);
+  cairo_set_fill_rule(canvas.cr(), CAIRO_FILL_RULE_EVEN_ODD);
+  cairo_move_to(canvas.cr(), polygon.front().x(), polygon.front().y());
+  for (const auto& p : polygon) cairo_line_to(canvas.cr(), p.x(), p.y());
+  cairo_close_path(canvas.cr());
+  cairo_fill(canvas.cr());
 }
 
-Eigen::Vector2f text_size(const std::string& text, float scale) {
-  std::string t = printable(text);
-  return font_units_size(t) * scale;
-}
+Eigen::Vector2f text_size(const std::string& text, float scale) { return layout_text(text, scale).size; }
 
 Eigen::Vector4f Image::draw_text(float x, float y, const std::string& text, const TextStyle& style) {
-  std::string t = printable(text);
-  const Eigen::Vector2f size = font_units_size(t) * style.scale;
+  const TextLayout t = layout_text(text, style.scale);
   // The anchor aligns the block of capitals; descenders hang below a bottom- or middle-aligned line as in print.
-  const float caps = (static_cast<float>(line_count(t) - 1) * kLineAdvance + kCapHeight) * style.scale;
-  float along = 0.0f;  // offset of the text's start along its reading direction
-  float across = 0.0f;  // offset of its top across it
-  if (style.h_align == HAlign::kCenter) along = -size.x() / 2.0f;
-  if (style.h_align == HAlign::kRight) along = -size.x();
-  if (style.v_align == VAlign::kMiddle) across = -caps / 2.0f;
-  if (style.v_align == VAlign::kBottom) across = -caps;
-  // Glyph point (u, v) in text space (u along the text, v down across it) to image pixels.
-  auto place = [&](float u, float v) -> Eigen::Vector2f {
+  const double last_baseline = t.first_baseline + static_cast<double>(t.lines.size()) * t.line_advance - t.line_advance;
+  const double caps_top = t.first_baseline - kCapHeight * style.scale;
+  double along = 0.0;   // offset of the box's start along its reading direction
+  double across = 0.0;  // offset of its top across it
+  if (style.h_align == HAlign::kCenter) along = -t.size.x() / 2.0;
+  if (style.h_align == HAlign::kRight) along = -t.size.x();
+  if (style.v_align == VAlign::kMiddle) across = -(caps_top + last_baseline) / 2.0;
+  if (style.v_align == VAlign::kBottom) across = -last_baseline;
+  // Point (u, v) of the box (u along the text, v down across it) in image pixels.
+  auto place = [&](double u, double v) -> Eigen::Vector2d {
     if (style.vertical) return {x + across + v, y - along - u};
     return {x + along + u, y + across + v};
   };
-  const Eigen::Vector2f corner_a = place(0.0f, 0.0f), corner_b = place(size.x(), size.y());
-  const Eigen::Vector4f box(std::min(corner_a.x(), corner_b.x()), std::min(corner_a.y(), corner_b.y()),
-                            std::max(corner_a.x(), corner_b.x()), std::max(corner_a.y(), corner_b.y()));
-  if (t.empty() || empty() || !(style.scale > 0.0f)) return box;
-
-  // stb_easy_font emits at most a few dozen quads of 64 bytes per glyph.
-  std::vector<char> vertices(t.size() * 64 * 40 + 64);
-  const int quads = stb_easy_font_print(0.0f, 0.0f, t.data(), nullptr, vertices.data(), static_cast<int>(vertices.size()));
-  CoverageMask mask(*this, box.x() - 1.0f, box.y() - 1.0f, box.z() + 1.0f, box.w() + 1.0f);
-  for (int q = 0; q < quads; ++q) {
-    float u0, v0, u1, v1;
-    std::memcpy(&u0, &vertices[static_cast<std::size_t>(q) * 64], sizeof(float));
-    std::memcpy(&v0, &vertices[static_cast<std::size_t>(q) * 64 + 4], sizeof(float));
-    std::memcpy(&u1, &vertices[static_cast<std::size_t>(q) * 64 + 32], sizeof(float));  // third vertex: far corner
-    std::memcpy(&v1, &vertices[static_cast<std::size_t>(q) * 64 + 36], sizeof(float));
-    const Eigen::Vector2f a = place(u0 * style.scale, v0 * style.scale);
-    const Eigen::Vector2f b = place(u1 * style.scale, v1 * style.scale);
-    mask.add_rect(std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y()));
+  Box box;
+  box.extend(place(0.0, 0.0)).extend(place(t.size.x(), t.size.y()));
+  const Eigen::Vector4f result(static_cast<float>(box.min().x()), static_cast<float>(box.min().y()),
+                               static_cast<float>(box.max().x()), static_cast<float>(box.max().y()));
+  const Font& f = font();
+  if (t.lines.empty() || !f.face || !box.min().allFinite() || !box.max().allFinite()) return result;
+  // Accents and glyphs reaching past their advance may leave the box a little.
+  const Canvas canvas(*this, grown(box, 0.3 * t.font_size + 1.0));
+  if (!canvas) return result;
+  if ((box.min().array().abs() > kMaxPathCoordinate).any() || (box.max().array().abs() > kMaxPathCoordinate).any()) {
+    return result;
   }
-  mask.blend_into(*this, style.color, 1.0f);
-  return box;
+  cairo_t* cr = canvas.cr();
+  canvas.set_color(style.color, 1.0f);
+  cairo_set_font_face(cr, f.face);
+  cairo_set_font_size(cr, t.font_size);
+  cairo_set_font_options(cr, f.options);
+  cairo_translate(cr, x, y);
+  if (style.vertical) cairo_rotate(cr, -kQuarterTurn);
+  for (std::size_t k = 0; k < t.lines.size(); ++k) {
+    cairo_move_to(cr, along + t.pen, across + t.first_baseline + static_cast<double>(k) * t.line_advance);
+    // Cairo rasterizes each glyph once into a cache; glyphs hundreds of pixels high are better filled as paths.
+    if (t.font_size <= 512.0) {
+      cairo_show_text(cr, t.lines[k].c_str());
+    } else {
+      cairo_text_path(cr, t.lines[k].c_str());
+      cairo_fill(cr);
+    }
+  }
+  return result;
 }
 
 void Image::blit(const Image& source, int x, int y) {
-  for (int sy = 0; sy < source.height(); ++sy) {
-    for (int sx = 0; sx < source.width(); ++sx) set_pixel(x + sx, y + sy, source.at(sx, sy));
+  const int x0 = std::max(clip_x0_, x), x1 = std::min(clip_x1_, x + source.width());
+  if (x1 <= x0) return;
+  for (int sy = std::max(0, clip_y0_ - y); sy < std::min(source.height(), clip_y1_ - y); ++sy) {
+    const std::size_t from = static_cast<std::size_t>(sy) * source.width() + (x0 - x);
+    const std::size_t to = static_cast<std::size_t>(y + sy) * width_ + x0;
+    std::copy_n(source.xrgb_.begin() + from, x1 - x0, xrgb_.begin() + to);
+    std::copy_n(source.pixels_.begin() + 3 * from, 3 * (x1 - x0), pixels_.begin() + 3 * to);
   }
 }
 
@@ -441,50 +562,74 @@ Image compose_grid(const std::vector<Image>& images, int columns, int gap, Rgb b
 
 void save_png(const Image& image, const std::filesystem::path& file) {
   if (image.empty()) throw Error("cannot write image " + file.string() + ": the image is empty");
-  std::string encoded;
-  const auto append = [](void* context, void* data, int size) {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));
-  };
-  if (!stbi_write_png_to_func(append, &encoded, image.width(), image.height(), 3, image.pixels().data(),
-                              image.width() * 3)) {
-    throw Error("cannot write image " + file.string() + ": PNG encoding failed");
-  }
   std::error_code ec;
   const auto parent = file.parent_path();
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
     throw Error("cannot write image " + file.string() + ": folder " + parent.string() + " does not exist");
   }
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  if (!out) throw Error("cannot write image " + file.string() + ": " + std::strerror(errno));
-  out.write(encoded.data(), static_cast<std::streamsize>(encoded.size()));
-  out.close();
-  if (!out) throw Error("cannot write image " + file.string() + " (disk full?)");
+  // Cairo only reads the pixels here.
+  auto* data = reinterpret_cast<unsigned char*>(const_cast<std::uint32_t*>(ImageAccess::xrgb(image)));
+  cairo_surface_t* surface =
+      cairo_image_surface_create_for_data(data, CAIRO_FORMAT_RGB24, image.width(), image.height(), image.width() * 4);
+  std::string encoded;
+  const auto append = [](void* closure, const unsigned char* bytes, unsigned int length) {
+    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(bytes), length);
+    return CAIRO_STATUS_SUCCESS;
+  };
+  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append, &encoded);
+  cairo_surface_destroy(surface);
+  if (status != CAIRO_STATUS_SUCCESS) {
+    throw Error("cannot write image " + file.string() + ": PNG encoding failed (" + cairo_status_to_string(status) +
+                ")");
+  }
+  write_file_atomically(file, encoded, "image");
 }
 
 Image load_png(const std::filesystem::path& file) {
-  int w = 0, h = 0, channels = 0;
-  stbi_uc* data = stbi_load(file.string().c_str(), &w, &h, &channels, 3);
-  if (!data) throw Error("cannot read image " + file.string() + ": " + stbi_failure_reason());
+  // Even RGBA that does not compress takes about 4 bytes a pixel: a larger file holds no 8-bit image within the limit.
+  constexpr std::uint64_t kMaxBytes = std::uint64_t{4} * kMaxImageSide * kMaxImageSide;
+  const std::string bytes = read_input_file(file, "image", kMaxBytes);
+  struct Reader {
+    const std::string& bytes;
+    std::size_t offset = 0;
+  } reader{bytes};
+  const auto read = [](void* closure, unsigned char* data, unsigned int length) {
+    auto& r = *static_cast<Reader*>(closure);
+    if (r.bytes.size() - r.offset < length) return CAIRO_STATUS_READ_ERROR;
+    std::memcpy(data, r.bytes.data() + r.offset, length);
+    r.offset += length;
+    return CAIRO_STATUS_SUCCESS;
+  };
+  cairo_surface_t* png = cairo_image_surface_create_from_png_stream(read, &reader);
+  const cairo_status_t status = cairo_surface_status(png);
+  if (status != CAIRO_STATUS_SUCCESS) {
+    cairo_surface_destroy(png);
+    const bool corrupt = status == CAIRO_STATUS_READ_ERROR || status == CAIRO_STATUS_PNG_ERROR;
+    throw Error("cannot read image " + file.string() + ": " +
+                (corrupt ? std::string("not a PNG file, or a corrupt one") : cairo_status_to_string(status)));
+  }
   Image image;
   try {
-    image = Image(w, h);
+    image = Image(cairo_image_surface_get_width(png), cairo_image_surface_get_height(png));
   } catch (const Error& e) {
-    stbi_image_free(data);
+    cairo_surface_destroy(png);
     throw Error("cannot read image " + file.string() + ": " + e.what());
   }
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const stbi_uc* p = data + (static_cast<std::size_t>(y) * w + x) * 3;
-      image.set_pixel(x, y, {p[0], p[1], p[2]});
-    }
+  {
+    const Canvas canvas(image, Box(Eigen::Vector2d::Zero(), Eigen::Vector2d(image.width(), image.height())));
+    cairo_set_source_surface(canvas.cr(), png, 0.0, 0.0);
+    cairo_paint(canvas.cr());
   }
-  stbi_image_free(data);
+  cairo_surface_destroy(png);
   return image;
 }
 
 TopDownTransform::TopDownTransform(const Eigen::Vector2d& world_min, const Eigen::Vector2d& world_max,
                                    double metres_per_pixel, const Margins& margins, const Eigen::Vector2i& origin)
-    : world_min_(world_min), world_max_(world_max), metres_per_pixel_(metres_per_pixel), margins_(margins),
+    : world_min_(world_min),
+      world_max_(world_max),
+      metres_per_pixel_(metres_per_pixel),
+      margins_(margins),
       origin_(origin) {
   if (!(metres_per_pixel > 0.0) || !std::isfinite(metres_per_pixel)) {
     throw Error("pixel size must be a positive number of metres");
@@ -541,8 +686,10 @@ namespace {
 
 std::string format_length(double metres) {
   char text[32];
-  if (metres >= 1.0) std::snprintf(text, sizeof(text), "%g m", metres);
-  else std::snprintf(text, sizeof(text), "%g cm", metres * 100.0);
+  if (metres >= 1.0)
+    std::snprintf(text, sizeof(text), "%g m", metres);
+  else
+    std::snprintf(text, sizeof(text), "%g cm", metres * 100.0);
   return text;
 }
 
@@ -567,9 +714,9 @@ void draw_scale_bar(Image& image, const TopDownTransform& view, float x, float y
                   {text_scale, colors::kText, HAlign::kCenter, VAlign::kBottom, false});
 }
 
-Eigen::Vector2f draw_colorbar(Image& image, float x, float y, float bar_width, const std::function<Rgb(float)>& colormap,
-                              const std::string& lo_label, const std::string& hi_label, const std::string& caption,
-                              float text_scale) {
+Eigen::Vector2f draw_colorbar(Image& image, float x, float y, float bar_width,
+                              const std::function<Rgb(float)>& colormap, const std::string& lo_label,
+                              const std::string& hi_label, const std::string& caption, float text_scale) {
   const float bar_height = 6.0f * text_scale;
   const float gap = 2.0f * text_scale;
   const TextStyle style{text_scale, colors::kText, HAlign::kLeft, VAlign::kTop, false};
@@ -615,7 +762,7 @@ void draw_legend(Image& image, float x, float y, const std::vector<LegendEntry>&
   image.stroke_rect(x, y, x + size.x(), y + size.y(), colors::kGrid);
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const LegendEntry& e = entries[i];
-    const float top = y + pad + static_cast<float>(i) * row;
+    const float top = y + pad + static_cast<float>(i) * row;  // of the label's capitals
     const float mid = top + kCapHeight * text_scale / 2.0f;
     const Eigen::Vector2f a(x + pad, mid), b(x + pad + swatch, mid);
     switch (e.symbol) {
@@ -634,8 +781,8 @@ void draw_legend(Image& image, float x, float y, const std::vector<LegendEntry>&
       case LegendEntry::Symbol::kArrow: {
         const float h = kCapHeight * text_scale / 2.0f + 1.0f;
         const Eigen::Vector2f c = (a + b) / 2.0f;
-        image.fill_polygon({c + Eigen::Vector2f(1.2f * h, 0.0f), c + Eigen::Vector2f(-h, h), c + Eigen::Vector2f(-0.4f * h, 0.0f),
-                            c + Eigen::Vector2f(-h, -h)},
+        image.fill_polygon({c + Eigen::Vector2f(1.2f * h, 0.0f), c + Eigen::Vector2f(-h, h),
+                            c + Eigen::Vector2f(-0.4f * h, 0.0f), c + Eigen::Vector2f(-h, -h)},
                            e.color);
         break;
       }
@@ -644,7 +791,8 @@ void draw_legend(Image& image, float x, float y, const std::vector<LegendEntry>&
         image.stroke_rect(a.x(), top, b.x(), top + kCapHeight * text_scale, colors::kAxis);
         break;
     }
-    image.draw_text(x + pad + swatch + pad, top, e.label, {text_scale, colors::kText, HAlign::kLeft, VAlign::kTop, false});
+    image.draw_text(x + pad + swatch + pad, mid, e.label,
+                    {text_scale, colors::kText, HAlign::kLeft, VAlign::kMiddle, false});
   }
 }
 

@@ -7,7 +7,9 @@
 #include <limits>
 #include <numeric>
 
+#include "tsdf_mcl/checked_math.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/pose_estimate.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -90,10 +92,10 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
     const float lo = options.z_min.value_or(-std::numeric_limits<float>::infinity());
     const float hi = options.z_max.value_or(std::numeric_limits<float>::infinity());
     if (std::isnan(lo) || std::isnan(hi) || !(lo <= hi)) throw Error("z-range is empty (z-min above z-max)");
-    // A hair of tolerance: "--z-min 0.5" on a 5 cm grid should include the voxel centred at 0.5.
+    // A hair of tolerance: "--z_min 0.5" on a 5 cm grid should include the voxel centred at 0.5.
     const double eps = 1e-4;
-    k_lo = std::isfinite(lo) ? std::max(first.z(), static_cast<int>(std::ceil(lo / vs - eps))) : first.z();
-    k_hi = std::isfinite(hi) ? std::min(last.z(), static_cast<int>(std::floor(hi / vs + eps))) : last.z();
+    k_lo = std::isfinite(lo) ? std::max(first.z(), io::saturated_ceil(lo / vs - eps)) : first.z();
+    k_hi = std::isfinite(hi) ? std::min(last.z(), io::saturated_floor(hi / vs + eps)) : last.z();
     if (k_lo > k_hi) {
       throw Error("z-range " + format_metres(lo) + " .. " + format_metres(hi) + " holds no voxel of the map (z " +
                   range + ")");
@@ -137,7 +139,8 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
     for (int cy = 0; cy < dims.y(); ++cy) {
       for (int cx = 0; cx < dims.x(); ++cx) {
         const std::uint32_t entry =
-            coarse[static_cast<std::size_t>(cx) + static_cast<std::size_t>(dims.x()) * (cy + static_cast<std::size_t>(dims.y()) * cz)];
+            coarse[static_cast<std::size_t>(cx) +
+                   static_cast<std::size_t>(dims.x()) * (cy + static_cast<std::size_t>(dims.y()) * cz)];
         if (entry == TsdfMap::kUnknownBlock) continue;
         if (entry == TsdfMap::kFreeBlock) {
           for (int ly = 0; ly < kB; ++ly) {
@@ -155,7 +158,8 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
           for (int ly = 0; ly < kB; ++ly) {
             for (int lx = 0; lx < kB; ++lx) {
               const int li = lx + kB * (ly + kB * lz);
-              const std::int16_t q = word_half(pool[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
+              const std::int16_t q =
+                  word_half(pool[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
               if (q == TsdfMap::kUnknownValue) continue;
               const std::size_t c = index(cx * kB + lx, cy * kB + ly);
               if (slice_) {
@@ -201,8 +205,8 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
 }
 
 std::optional<Eigen::Vector2i> MapRaster::column_at(const Eigen::Vector2d& world) const {
-  const int i = static_cast<int>(std::floor(world.x() / voxel_size_ + 0.5)) - first_column_.x();
-  const int j = static_cast<int>(std::floor(world.y() / voxel_size_ + 0.5)) - first_column_.y();
+  const int i = io::saturated_floor(world.x() / voxel_size_ + 0.5) - first_column_.x();
+  const int j = io::saturated_floor(world.y() / voxel_size_ + 0.5) - first_column_.y();
   if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return std::nullopt;
   return Eigen::Vector2i(i, j);
 }
@@ -267,14 +271,14 @@ int priority(MapRaster::Cell cell) {
 }
 
 // Column index range [first, last] under each pixel along one axis; first > last where the pixel is off the map.
-std::vector<Eigen::Vector2i> column_spans(int pixels, double world_at_pixel0, double step, double voxel, int first_column,
-                                          int columns) {
+std::vector<Eigen::Vector2i> column_spans(int pixels, double world_at_pixel0, double step, double voxel,
+                                          int first_column, int columns) {
   std::vector<Eigen::Vector2i> spans(static_cast<std::size_t>(pixels));
   for (int p = 0; p < pixels; ++p) {
     const double a = world_at_pixel0 + step * p, b = a + step;
     const double lo = std::min(a, b), hi = std::max(a, b);
-    int c0 = static_cast<int>(std::floor(lo / voxel + 0.5)) - first_column;
-    int c1 = static_cast<int>(std::ceil(hi / voxel + 0.5)) - 1 - first_column;
+    int c0 = io::saturated_floor(lo / voxel + 0.5) - first_column;
+    int c1 = io::saturated_ceil(hi / voxel + 0.5) - 1 - first_column;
     if (c1 < c0) c1 = c0;  // a pixel inside one column
     c0 = std::max(c0, 0);
     c1 = std::min(c1, columns - 1);
@@ -286,7 +290,8 @@ std::vector<Eigen::Vector2i> column_spans(int pixels, double world_at_pixel0, do
 void paint_map(Image& image, const MapRaster& raster, const TopDownTransform& view) {
   const Eigen::Vector4i area = view.area();
   const double mpp = view.metres_per_pixel();
-  const Eigen::Vector2d top_left = view.to_world(Eigen::Vector2f(static_cast<float>(area.x()), static_cast<float>(area.y())));
+  const Eigen::Vector2d top_left =
+      view.to_world(Eigen::Vector2f(static_cast<float>(area.x()), static_cast<float>(area.y())));
   const auto xs = column_spans(area.z() - area.x(), top_left.x(), mpp, raster.voxel_size(), raster.first_column().x(),
                                raster.columns_x());
   const auto ys = column_spans(area.w() - area.y(), top_left.y(), -mpp, raster.voxel_size(), raster.first_column().y(),
@@ -329,19 +334,6 @@ std::vector<Eigen::Vector2f> arrow(const Eigen::Vector2f& center, const Eigen::V
   return {tip, back + side * (0.45f * length), center - dir * (0.15f * length), back - side * (0.45f * length)};
 }
 
-std::vector<Eigen::Vector2f> grown(const std::vector<Eigen::Vector2f>& polygon, float by) {
-  Eigen::Vector2f c = Eigen::Vector2f::Zero();
-  for (const auto& p : polygon) c += p;
-  c /= static_cast<float>(polygon.size());
-  std::vector<Eigen::Vector2f> out;
-  for (const auto& p : polygon) {
-    const Eigen::Vector2f d = p - c;
-    const float n = d.norm();
-    out.push_back(n > 0.0f ? p + d / n * by : p);
-  }
-  return out;
-}
-
 // A filled arrow with a white rim, so that it reads on every background.
 void draw_pose_arrow(Image& image, const Eigen::Vector2f& at, const Pose& pose, Rgb color, float size) {
   Eigen::Vector2f dir = heading_in_pixels(pose);
@@ -351,8 +343,10 @@ void draw_pose_arrow(Image& image, const Eigen::Vector2f& at, const Pose& pose, 
     return;
   }
   dir.normalize();
-  const auto shape = arrow(at, dir, size);
-  image.fill_polygon(grown(shape, 2.0f), colors::kWhite);
+  // The rim is the outline stroked 4 pixels wide in white, the inner half of which the arrow covers again.
+  std::vector<Eigen::Vector2f> shape = arrow(at, dir, size);
+  shape.push_back(shape.front());
+  image.draw_polyline(shape, colors::kWhite, 4.0f);
   image.fill_polygon(shape, color);
 }
 
@@ -371,9 +365,12 @@ void draw_trajectory(Image& image, const TopDownTransform& view, const Trajector
   const float width = t.width;
   std::vector<Eigen::Vector2f> run;
   auto flush = [&] {
-    if (run.size() == 1) image.fill_circle(run.front(), width, t.color, t.alpha);
-    else if (t.dashed) image.draw_dashed_polyline(run, t.color, width, 4.0f * width, t.alpha);
-    else image.draw_polyline(run, t.color, width, t.alpha);
+    if (run.size() == 1)
+      image.fill_circle(run.front(), width, t.color, t.alpha);
+    else if (t.dashed)
+      image.draw_dashed_polyline(run, t.color, width, 4.0f * width, t.alpha);
+    else
+      image.draw_polyline(run, t.color, width, t.alpha);
     run.clear();
   };
   for (std::size_t i = 0; i < t.poses.size(); ++i) {
@@ -401,7 +398,9 @@ void draw_particles(Image& image, const TopDownTransform& view, const ParticleSn
   std::vector<std::size_t> order(ps.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   // Heavy particles last, on top of the light ones they would otherwise hide under.
-  if (by_weight) std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ps[a].weight < ps[b].weight; });
+  if (by_weight)
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return ps[a].weight < ps[b].weight; });
   const float r = options.particle_radius;
   // Tens of thousands of particles spread over a map (a global initialization) would paint it over completely at
   // full opacity; fainter dots then show their density and keep the map readable under them.
@@ -420,9 +419,132 @@ void draw_particles(Image& image, const TopDownTransform& view, const ParticleSn
       Pose pose = Pose::Identity();
       pose.linear() = p.orientation.cast<double>().toRotationMatrix();
       const Eigen::Vector2f dir = heading_in_pixels(pose);
-      if (dir.norm() > 1e-3f) image.draw_line(at, at + dir.normalized() * (4.0f * r), color, std::max(1.0f, r / 2.0f), alpha);
+      if (dir.norm() > 1e-3f)
+        image.draw_line(at, at + dir.normalized() * (4.0f * r), color, std::max(1.0f, r / 2.0f), alpha);
     }
   }
+}
+
+bool has_weights(const ParticleSnapshot& snapshot) {
+  if (snapshot.particles.empty()) return false;
+  const auto [lo, hi] = std::minmax_element(snapshot.particles.begin(), snapshot.particles.end(),
+                                            [](const auto& a, const auto& b) { return a.weight < b.weight; });
+  return lo->weight < hi->weight * 0.999f;
+}
+
+// The world area of the figure: the known map and every overlay, with the padding around them.
+Eigen::AlignedBox2d view_box(const MapRaster& raster, const std::vector<TrajectoryOverlay>& trajectories,
+                             const std::vector<MapPanel>& panels, const MapViewOptions& options) {
+  Eigen::AlignedBox2d box;  // empty
+  if (auto known = raster.known_bounds()) box.extend(*known);
+  for (const auto& t : trajectories) {
+    for (const auto& pose : t.poses) {
+      if (pose.translation().allFinite()) box.extend(Eigen::Vector2d(pose.translation().head<2>()));
+    }
+  }
+  for (const auto& panel : panels) {
+    for (const auto& p : panel.particles.particles) box.extend(p.position.head<2>().cast<double>());
+    for (const auto& m : panel.markers) box.extend(Eigen::Vector2d(m.pose.translation().head<2>()));
+  }
+  if (box.isEmpty()) {
+    throw Error("nothing to draw: no known voxel in the " + std::string(raster.is_slice() ? "slice" : "z-range") +
+                " and no overlay");
+  }
+  box.min() -= Eigen::Vector2d::Constant(options.padding);
+  box.max() += Eigen::Vector2d::Constant(options.padding);
+  box.max() = box.min() + box.sizes().cwiseMax(Eigen::Vector2d::Constant(raster.voxel_size()));
+  return box;
+}
+
+std::vector<LegendEntry> legend_entries(const std::vector<TrajectoryOverlay>& trajectories,
+                                        const std::vector<MapPanel>& panels, const MapViewOptions& options) {
+  std::vector<LegendEntry> legend;
+  for (const auto& t : trajectories) {
+    if (t.label.empty()) continue;
+    legend.push_back({t.label, mix(colors::kWhite, t.color, t.alpha),
+                      t.dashed ? LegendEntry::Symbol::kDashedLine : LegendEntry::Symbol::kLine});
+  }
+  if (!trajectories.empty()) {
+    legend.push_back({"start", colors::kText, LegendEntry::Symbol::kRing});
+    legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
+  }
+  if (std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return !p.particles.particles.empty(); })) {
+    legend.push_back({"particles", options.particle_color, LegendEntry::Symbol::kDot});
+  }
+  std::vector<std::string> seen_markers;
+  for (const auto& panel : panels) {
+    for (const auto& m : panel.markers) {
+      if (m.label.empty() || std::find(seen_markers.begin(), seen_markers.end(), m.label) != seen_markers.end())
+        continue;
+      seen_markers.push_back(m.label);
+      legend.push_back({m.label, m.color, LegendEntry::Symbol::kArrow});
+    }
+  }
+  legend.push_back({"not observed", kUnknownColor, LegendEntry::Symbol::kBand});
+  legend.push_back({"free", kFreeColor, LegendEntry::Symbol::kBand});
+  return legend;
+}
+
+struct ColorBar {
+  std::string caption, lo, hi;
+  std::function<Rgb(float)> colormap;
+  float width = 0.0f;
+};
+
+// The map's colour scale (obstacle height or signed distance) and, for weighted particles, their weight scale.
+std::vector<ColorBar> color_bars(const MapRaster& raster, bool weighted_particles, const MapViewOptions& options,
+                                 float ts) {
+  std::vector<ColorBar> bars;
+  char caption[96];
+  if (raster.is_slice()) {
+    std::snprintf(caption, sizeof(caption), "signed distance, slice z = %.2f m", static_cast<double>(raster.z_min()));
+    const float trunc = raster.truncation();
+    bars.push_back({caption, format_metres(-trunc), "+" + format_metres(trunc), [trunc](float t) {
+                      const float d = (2.0f * t - 1.0f) * trunc;
+                      return d >= 0.0f ? mix(kNearSurfaceColor, kFreeColor, d / trunc)
+                                       : mix(kInsideColor, kDeepInsideColor, -d / trunc);
+                    }});
+  } else {
+    std::snprintf(caption, sizeof(caption), "obstacle height (z range %.2f .. %.2f m)",
+                  static_cast<double>(raster.z_min()), static_cast<double>(raster.z_max()));
+    bars.push_back({caption, format_metres(raster.obstacle_min()), format_metres(raster.obstacle_max()), height_color});
+  }
+  if (weighted_particles) {
+    const Rgb strong = options.particle_color;
+    bars.push_back(
+        {"particle weight / max", "1e-3", "1", [strong](float t) { return particle_weight_color(strong, t); }});
+  }
+  for (auto& bar : bars) bar.width = std::max(100.0f * ts, text_size(bar.caption, ts).x());
+  return bars;
+}
+
+// One panel: the map, the scale bar, the trajectories, the markers and the particles, clipped to the panel's area.
+void draw_panel(Image& image, const MapRaster& raster, const TopDownTransform& view, const MapPanel& panel,
+                const std::vector<TrajectoryOverlay>& trajectories, const MapViewOptions& options, float ts, int pad) {
+  const Eigen::Vector4i area = view.area();
+  if (!panel.caption.empty()) {
+    image.draw_text(static_cast<float>(area.x()), static_cast<float>(area.y() - pad / 2), panel.caption,
+                    {ts, colors::kText, HAlign::kLeft, VAlign::kBottom, false});
+  }
+  paint_map(image, raster, view);
+  image.set_clip(area.x(), area.y(), area.z(), area.w());
+  // Under the overlays: in a small panel the bar may have to cover part of the map, never the robot.
+  draw_scale_bar(image, view, static_cast<float>(area.x() + pad * 2), static_cast<float>(area.w() - pad * 2),
+                 static_cast<float>(area.z() - area.x()) / 4.0f, ts);
+  for (const auto& t : trajectories) draw_trajectory(image, view, t, ts);
+  // Markers summarize the particles; drawn under them, a converged cloud stays visible on its own marker.
+  for (const auto& m : panel.markers) {
+    const Eigen::Vector2f at = view.to_pixel(m.pose.translation().head<2>());
+    draw_pose_arrow(image, at, m.pose, m.color, 14.0f * ts);
+    if (!m.annotation.empty()) {
+      image.draw_text(at.x() + 12.0f * ts, at.y() - 12.0f * ts, m.annotation,
+                      {ts, m.color, HAlign::kLeft, VAlign::kBottom, false});
+    }
+  }
+  draw_particles(image, view, panel.particles, options);
+  image.reset_clip();
+  image.stroke_rect(static_cast<float>(area.x() - 1), static_cast<float>(area.y() - 1),
+                    static_cast<float>(area.z() + 1), static_cast<float>(area.w() + 1), colors::kAxis);
 }
 
 }  // namespace
@@ -432,37 +554,11 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
   const std::vector<MapPanel> panels = panels_in.empty() ? std::vector<MapPanel>(1) : panels_in;
   if (!(options.text_scale >= 0.0f)) throw Error("text scale must not be negative");
   if (!(options.padding >= 0.0) || !std::isfinite(options.padding)) throw Error("view padding must be >= 0 m");
-
-  Eigen::AlignedBox2d box;  // empty
-  if (auto known = raster.known_bounds()) box.extend(*known);
-  for (const auto& t : trajectories) {
-    for (const auto& pose : t.poses) {
-      if (pose.translation().allFinite()) box.extend(Eigen::Vector2d(pose.translation().head<2>()));
-    }
-  }
-  bool has_particles = false, weighted_particles = false;
-  for (const auto& panel : panels) {
-    for (const auto& p : panel.particles.particles) box.extend(p.position.head<2>().cast<double>());
-    for (const auto& m : panel.markers) box.extend(Eigen::Vector2d(m.pose.translation().head<2>()));
-    if (panel.particles.particles.empty()) continue;
-    has_particles = true;
-    const auto [lo, hi] = std::minmax_element(panel.particles.particles.begin(), panel.particles.particles.end(),
-                                              [](const auto& a, const auto& b) { return a.weight < b.weight; });
-    if (lo->weight < hi->weight * 0.999f) weighted_particles = true;
-  }
-  if (box.isEmpty()) {
-    throw Error("nothing to draw: no known voxel in the " + std::string(raster.is_slice() ? "slice" : "z-range") +
-                " and no overlay");
-  }
-  box.min() -= Eigen::Vector2d::Constant(options.padding);
-  box.max() += Eigen::Vector2d::Constant(options.padding);
-  const Eigen::Vector2d extent = box.sizes().cwiseMax(Eigen::Vector2d::Constant(raster.voxel_size()));
-  box.max() = box.min() + extent;
-
+  const Eigen::AlignedBox2d box = view_box(raster, trajectories, panels, options);
   double mpp = options.metres_per_pixel;
   if (mpp == 0.0) {
     if (options.panel_pixels < 16) throw Error("panel size must be at least 16 pixels");
-    mpp = extent.maxCoeff() / options.panel_pixels;
+    mpp = box.sizes().maxCoeff() / options.panel_pixels;
   }
   if (!(mpp > 0.0) || !std::isfinite(mpp)) throw Error("pixel size must be a positive number of metres");
   const TopDownTransform base(box.min(), box.max(), mpp);
@@ -478,69 +574,21 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
   const bool captions = std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return !p.caption.empty(); });
   const int title_h = options.title.empty() ? 0 : static_cast<int>(std::round(1.3f * line)) + pad;
   const int caption_h = captions ? static_cast<int>(std::round(line)) : 0;
-
-  std::vector<LegendEntry> legend;
-  for (const auto& t : trajectories) {
-    if (t.label.empty()) continue;
-    legend.push_back({t.label, mix(colors::kWhite, t.color, t.alpha),
-                      t.dashed ? LegendEntry::Symbol::kDashedLine : LegendEntry::Symbol::kLine});
-  }
-  if (!trajectories.empty()) {
-    legend.push_back({"start", colors::kText, LegendEntry::Symbol::kRing});
-    legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
-  }
-  if (has_particles) legend.push_back({"particles", options.particle_color, LegendEntry::Symbol::kDot});
-  std::vector<std::string> seen_markers;
-  for (const auto& panel : panels) {
-    for (const auto& m : panel.markers) {
-      if (m.label.empty() || std::find(seen_markers.begin(), seen_markers.end(), m.label) != seen_markers.end()) continue;
-      seen_markers.push_back(m.label);
-      legend.push_back({m.label, m.color, LegendEntry::Symbol::kArrow});
-    }
-  }
-  legend.push_back({"not observed", kUnknownColor, LegendEntry::Symbol::kBand});
-  legend.push_back({"free", kFreeColor, LegendEntry::Symbol::kBand});
+  const std::vector<LegendEntry> legend = legend_entries(trajectories, panels, options);
   const Eigen::Vector2f legend_box = legend_size(legend, ts);
-
-  struct ColorBar {
-    std::string caption, lo, hi;
-    std::function<Rgb(float)> colormap;
-    float width;
-  };
-  std::vector<ColorBar> bars;
-  char caption[96];
-  if (raster.is_slice()) {
-    std::snprintf(caption, sizeof(caption), "signed distance, slice z = %.2f m", static_cast<double>(raster.z_min()));
-    const float trunc = raster.truncation();
-    bars.push_back({caption, format_metres(-trunc), "+" + format_metres(trunc), [trunc](float t) {
-                      const float d = (2.0f * t - 1.0f) * trunc;
-                      return d >= 0.0f ? mix(kNearSurfaceColor, kFreeColor, d / trunc)
-                                       : mix(kInsideColor, kDeepInsideColor, -d / trunc);
-                    }, 0.0f});
-  } else {
-    std::snprintf(caption, sizeof(caption), "obstacle height (z range %.2f .. %.2f m)",
-                  static_cast<double>(raster.z_min()), static_cast<double>(raster.z_max()));
-    bars.push_back({caption, format_metres(raster.obstacle_min()), format_metres(raster.obstacle_max()), height_color,
-                    0.0f});
-  }
-  if (weighted_particles) {
-    const Rgb strong = options.particle_color;
-    bars.push_back({"particle weight / max", "1e-3", "1", [strong](float t) { return particle_weight_color(strong, t); },
-                    0.0f});
-  }
+  const std::vector<ColorBar> bars = color_bars(
+      raster, std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return has_weights(p.particles); }),
+      options, ts);
   float footer_w = legend_box.x();
-  for (auto& bar : bars) {
-    bar.width = std::max(100.0f * ts, text_size(bar.caption, ts).x());
-    footer_w += 2.0f * pad + bar.width;
-  }
-  const int footer_h = static_cast<int>(std::ceil(std::max(legend_box.y(), 3.0f * line)));
+  for (const auto& bar : bars) footer_w += 2.0f * pad + bar.width;
+  const int footer_h = io::saturated_ceil(std::max(legend_box.y(), 3.0f * line));
 
   const int n = static_cast<int>(panels.size());
   const int panels_w = n * panel_w + (n - 1) * 2 * pad;
-  const int width = 2 * pad + std::max(panels_w, static_cast<int>(std::ceil(footer_w)));
+  const int width = 2 * pad + std::max(panels_w, io::saturated_ceil(footer_w));
   const int panels_top = pad + title_h + (captions ? caption_h + pad / 2 : 0);
   const int height = panels_top + panel_h + pad + footer_h + pad;
-  if (width > 32768 || height > 32768) {
+  if (width > kMaxImageSide || height > kMaxImageSide) {
     throw Error("figure of " + std::to_string(width) + " x " + std::to_string(height) +
                 " pixels is too large: choose a coarser pixel size");
   }
@@ -551,31 +599,11 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
     image.draw_text(static_cast<float>(width) / 2.0f, static_cast<float>(pad), options.title,
                     {1.3f * ts, colors::kText, HAlign::kCenter, VAlign::kTop, false});
   }
-
   const int x_start = pad + (width - 2 * pad - panels_w) / 2;
   for (int k = 0; k < n; ++k) {
-    const MapPanel& panel = panels[static_cast<std::size_t>(k)];
-    const TopDownTransform view = base.moved_to({x_start + k * (panel_w + 2 * pad), panels_top});
-    figure.panels.push_back(view);
-    const Eigen::Vector4i area = view.area();
-    if (!panel.caption.empty()) {
-      image.draw_text(static_cast<float>(area.x()), static_cast<float>(panels_top - pad / 2), panel.caption,
-                      {ts, colors::kText, HAlign::kLeft, VAlign::kBottom, false});
-    }
-    paint_map(image, raster, view);
-    image.set_clip(area.x(), area.y(), area.z(), area.w());
-    // Under the overlays: in a small panel the bar may have to cover part of the map, never the robot.
-    draw_scale_bar(image, view, static_cast<float>(area.x() + pad * 2), static_cast<float>(area.w() - pad * 2),
-                   static_cast<float>(area.z() - area.x()) / 4.0f, ts);
-    for (const auto& t : trajectories) draw_trajectory(image, view, t, ts);
-    // Markers summarize the particles; drawn under them, a converged cloud stays visible on its own marker.
-    for (const auto& m : panel.markers) {
-      draw_pose_arrow(image, view.to_pixel(m.pose.translation().head<2>()), m.pose, m.color, 14.0f * ts);
-    }
-    draw_particles(image, view, panel.particles, options);
-    image.reset_clip();
-    image.stroke_rect(static_cast<float>(area.x() - 1), static_cast<float>(area.y() - 1), static_cast<float>(area.z() + 1),
-                      static_cast<float>(area.w() + 1), colors::kAxis);
+    figure.panels.push_back(base.moved_to({x_start + k * (panel_w + 2 * pad), panels_top}));
+    draw_panel(image, raster, figure.panels.back(), panels[static_cast<std::size_t>(k)], trajectories, options, ts,
+               pad);
   }
 
   const float footer_y = static_cast<float>(panels_top + panel_h + pad);
@@ -589,6 +617,29 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
     fx += bar.width;
   }
   return figure;
+}
+
+std::vector<PoseMarker> hypothesis_markers(const ParticleSnapshot& snapshot) {
+  const std::size_t n = snapshot.particles.size();
+  if (n == 0) return {};
+  std::vector<float> soa(8 * n);
+  const ParticleArrays arrays = ParticleArrays::over(soa.data(), n);
+  std::vector<double> weights(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    arrays.set(i, snapshot.particles[i].position, snapshot.particles[i].orientation);
+    weights[i] = snapshot.particles[i].weight;
+  }
+  if (!(*std::max_element(weights.begin(), weights.end()) > 0.0)) return {};
+  PoseEstimator estimator{PoseEstimateOptions{}};
+  const PoseEstimate e = estimator.estimate(arrays, weights.data(), n);
+  std::vector<PoseMarker> markers;
+  for (const Hypothesis& h : e.hypotheses) {
+    if (h.weight < 0.01 || markers.size() == 4) break;
+    char share[16];
+    std::snprintf(share, sizeof(share), "%.0f %%", 100.0 * h.weight);
+    markers.push_back({h.pose, palette_color(0), markers.empty() ? "hypotheses (share of the weight)" : "", share});
+  }
+  return markers;
 }
 
 }  // namespace tsdf_mcl

@@ -4,7 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <utility>
+#include <vector>
 
+#include "clip.hpp"
 #include "tsdf_mcl/error.hpp"
 
 namespace tsdf_mcl {
@@ -29,30 +32,6 @@ struct Range {
   }
   bool valid() const { return lo <= hi; }
 };
-
-// Liang-Barsky: clips the segment a-b to the box; false if nothing of it is inside.
-bool clip_segment(Eigen::Vector2d& a, Eigen::Vector2d& b, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
-  double t0 = 0.0, t1 = 1.0;
-  const Eigen::Vector2d d = b - a;
-  for (int axis = 0; axis < 2; ++axis) {
-    const double p[2] = {-d[axis], d[axis]};
-    const double q[2] = {a[axis] - lo[axis], hi[axis] - a[axis]};
-    for (int k = 0; k < 2; ++k) {
-      if (p[k] == 0.0) {
-        if (q[k] < 0.0) return false;
-        continue;
-      }
-      const double t = q[k] / p[k];
-      if (p[k] < 0.0) t0 = std::max(t0, t);
-      else t1 = std::min(t1, t);
-    }
-  }
-  if (t0 > t1) return false;
-  const Eigen::Vector2d start = a + t0 * d;
-  b = a + t1 * d;
-  a = start;
-  return true;
-}
 
 }  // namespace
 
@@ -92,18 +71,25 @@ std::string format_tick(double value, int decimals) {
   return s;
 }
 
-Image render_plot(const LinePlot& plot) {
-  for (const auto& s : plot.series) {
-    if (s.x.size() != s.y.size()) {
-      throw Error("plot series '" + s.label + "' has " + std::to_string(s.x.size()) + " x values but " +
-                  std::to_string(s.y.size()) + " y values");
-    }
-  }
-  const float ts = plot.text_scale;
-  if (!(ts > 0.0f)) throw Error("plot text scale must be positive");
-  const float line = 12.0f * ts;  // one text line
-  const float pad = 6.0f * ts;
+namespace {
 
+// Where everything goes: the axes' limits and ticks, the plot area in image pixels and the legend.
+struct PlotLayout {
+  float ts = 1.0f;    // text scale
+  float line = 0.0f;  // one text line
+  float pad = 0.0f;
+  Ticks xt, yt;
+  double x_lo = 0.0, x_hi = 1.0, y_lo = 0.0, y_hi = 1.0;
+  float px0 = 0.0f, py0 = 0.0f, px1 = 0.0f, py1 = 0.0f;
+  std::vector<LegendEntry> legend;
+
+  Eigen::Vector2d to_px(double x, double y) const {
+    return {px0 + (x - x_lo) / (x_hi - x_lo) * (px1 - px0), py1 - (y - y_lo) / (y_hi - y_lo) * (py1 - py0)};
+  }
+};
+
+// The ranges the axes cover: the data, the reference lines and the markers, or the fixed limits.
+std::pair<Range, Range> axis_ranges(const LinePlot& plot) {
   Range xr, yr;
   for (const auto& s : plot.series) {
     for (std::size_t i = 0; i < s.x.size(); ++i) {
@@ -124,142 +110,178 @@ Image render_plot(const LinePlot& plot) {
       ((plot.x_min || plot.x_max) && !(xr.lo < xr.hi)) || ((plot.y_min || plot.y_max) && !(yr.lo < yr.hi))) {
     throw Error("plot axis limits are empty, inverted or not finite");
   }
+  return {xr, yr};
+}
 
+PlotLayout layout_plot(const LinePlot& plot) {
+  PlotLayout l;
+  l.ts = plot.text_scale;
+  l.line = 12.0f * l.ts;
+  l.pad = 6.0f * l.ts;
+  const auto [xr, yr] = axis_ranges(plot);
   // Approximate tick counts from the image size first; the plot area follows from the labels they need.
-  const int max_x_ticks = std::clamp(plot.width / static_cast<int>(70.0f * ts), 3, 12);
-  const int max_y_ticks = std::clamp(plot.height / static_cast<int>(30.0f * ts), 3, 10);
-  Ticks xt = nice_ticks(xr.lo, xr.hi, max_x_ticks);
-  Ticks yt = nice_ticks(yr.lo, yr.hi, max_y_ticks);
+  const int max_x_ticks = std::clamp(plot.width / static_cast<int>(70.0f * l.ts), 3, 12);
+  const int max_y_ticks = std::clamp(plot.height / static_cast<int>(30.0f * l.ts), 3, 10);
+  l.xt = nice_ticks(xr.lo, xr.hi, max_x_ticks);
+  l.yt = nice_ticks(yr.lo, yr.hi, max_y_ticks);
   // Fixed limits are kept exactly. The x axis (time) ends where the data ends, which a run's length rarely matches to
   // a tick; the y axis ends on ticks, so the extreme values can be read off a labelled grid line.
   const bool tight_x = xr.hi > xr.lo;
-  const double x_lo = plot.x_min || tight_x ? xr.lo : xt.values.front();
-  const double x_hi = plot.x_max || tight_x ? xr.hi : xt.values.back();
-  const double y_lo = plot.y_min ? yr.lo : yt.values.front(), y_hi = plot.y_max ? yr.hi : yt.values.back();
+  l.x_lo = plot.x_min || tight_x ? xr.lo : l.xt.values.front();
+  l.x_hi = plot.x_max || tight_x ? xr.hi : l.xt.values.back();
+  l.y_lo = plot.y_min ? yr.lo : l.yt.values.front();
+  l.y_hi = plot.y_max ? yr.hi : l.yt.values.back();
 
   float y_label_width = 0.0f;
-  for (double v : yt.values) y_label_width = std::max(y_label_width, text_size(format_tick(v, yt.decimals), ts).x());
-
-  std::vector<LegendEntry> legend;
+  for (double v : l.yt.values)
+    y_label_width = std::max(y_label_width, text_size(format_tick(v, l.yt.decimals), l.ts).x());
   for (std::size_t i = 0; i < plot.series.size(); ++i) {
     const auto& s = plot.series[i];
-    if (!s.label.empty()) legend.push_back({s.label, s.color.value_or(palette_color(i)), LegendEntry::Symbol::kLine});
+    if (!s.label.empty()) l.legend.push_back({s.label, s.color.value_or(palette_color(i)), LegendEntry::Symbol::kLine});
   }
-  const Eigen::Vector2f legend_box = legend_size(legend, ts);
+  const Eigen::Vector2f legend_box = legend_size(l.legend, l.ts);
 
-  const float left = pad + (plot.y_label.empty() ? 0.0f : line + pad) + y_label_width + pad;
-  const float top = pad + (plot.title.empty() ? 0.0f : 1.3f * line + pad);
-  const float right = pad + (legend.empty() ? 0.0f : legend_box.x() + pad);
-  const float bottom = pad + line + (plot.x_label.empty() ? 0.0f : line + pad);
-  const float px0 = std::round(left), py0 = std::round(top);
-  const float px1 = std::round(static_cast<float>(plot.width) - right);
-  const float py1 = std::round(static_cast<float>(plot.height) - bottom);
-  if (px1 - px0 < 40.0f || py1 - py0 < 40.0f) {
+  const float left = l.pad + (plot.y_label.empty() ? 0.0f : l.line + l.pad) + y_label_width + l.pad;
+  const float top = l.pad + (plot.title.empty() ? 0.0f : 1.3f * l.line + l.pad);
+  const float right = l.pad + (l.legend.empty() ? 0.0f : legend_box.x() + l.pad);
+  const float bottom = l.pad + l.line + (plot.x_label.empty() ? 0.0f : l.line + l.pad);
+  l.px0 = std::round(left);
+  l.py0 = std::round(top);
+  l.px1 = std::round(static_cast<float>(plot.width) - right);
+  l.py1 = std::round(static_cast<float>(plot.height) - bottom);
+  if (l.px1 - l.px0 < 40.0f || l.py1 - l.py0 < 40.0f) {
     throw Error("plot of " + std::to_string(plot.width) + " x " + std::to_string(plot.height) +
                 " pixels is too small for its labels");
   }
+  return l;
+}
 
-  Image image(plot.width, plot.height, colors::kWhite);
-  auto to_px = [&](double x, double y) {
-    return Eigen::Vector2d(px0 + (x - x_lo) / (x_hi - x_lo) * (px1 - px0), py1 - (y - y_lo) / (y_hi - y_lo) * (py1 - py0));
-  };
-  const TextStyle label_style{ts, colors::kText, HAlign::kCenter, VAlign::kTop, false};
-
-  // Grid and tick labels.
-  for (double v : xt.values) {
-    if (v < x_lo - 1e-9 * (x_hi - x_lo) || v > x_hi + 1e-9 * (x_hi - x_lo)) continue;
-    const float x = std::round(static_cast<float>(to_px(v, y_lo).x())) + 0.5f;
-    image.draw_line({x, py0}, {x, py1}, colors::kGrid);
-    image.draw_text(x, py1 + pad, format_tick(v, xt.decimals), label_style);
+// Grid, tick labels, the zero line, the frame, the title and the axis labels.
+void draw_axes(Image& image, const LinePlot& plot, const PlotLayout& l) {
+  const TextStyle label_style{l.ts, colors::kText, HAlign::kCenter, VAlign::kTop, false};
+  for (double v : l.xt.values) {
+    if (v < l.x_lo - 1e-9 * (l.x_hi - l.x_lo) || v > l.x_hi + 1e-9 * (l.x_hi - l.x_lo)) continue;
+    const float x = std::round(static_cast<float>(l.to_px(v, l.y_lo).x())) + 0.5f;
+    image.draw_line({x, l.py0}, {x, l.py1}, colors::kGrid);
+    image.draw_text(x, l.py1 + l.pad, format_tick(v, l.xt.decimals), label_style);
   }
-  for (double v : yt.values) {
-    if (v < y_lo - 1e-9 * (y_hi - y_lo) || v > y_hi + 1e-9 * (y_hi - y_lo)) continue;
-    const float y = std::round(static_cast<float>(to_px(x_lo, v).y())) + 0.5f;
-    image.draw_line({px0, y}, {px1, y}, colors::kGrid);
-    image.draw_text(px0 - pad, y, format_tick(v, yt.decimals), {ts, colors::kText, HAlign::kRight, VAlign::kMiddle, false});
+  for (double v : l.yt.values) {
+    if (v < l.y_lo - 1e-9 * (l.y_hi - l.y_lo) || v > l.y_hi + 1e-9 * (l.y_hi - l.y_lo)) continue;
+    const float y = std::round(static_cast<float>(l.to_px(l.x_lo, v).y())) + 0.5f;
+    image.draw_line({l.px0, y}, {l.px1, y}, colors::kGrid);
+    image.draw_text(l.px0 - l.pad, y, format_tick(v, l.yt.decimals),
+                    {l.ts, colors::kText, HAlign::kRight, VAlign::kMiddle, false});
   }
-  if (y_lo < 0.0 && y_hi > 0.0) {
-    const float y = std::round(static_cast<float>(to_px(x_lo, 0.0).y())) + 0.5f;
-    image.draw_line({px0, y}, {px1, y}, rgb_hex(0xb0b0b0));
+  if (l.y_lo < 0.0 && l.y_hi > 0.0) {
+    const float y = std::round(static_cast<float>(l.to_px(l.x_lo, 0.0).y())) + 0.5f;
+    image.draw_line({l.px0, y}, {l.px1, y}, rgb_hex(0xb0b0b0));
   }
-  image.stroke_rect(px0, py0, px1 + 1.0f, py1 + 1.0f, colors::kAxis);
+  image.stroke_rect(l.px0, l.py0, l.px1 + 1.0f, l.py1 + 1.0f, colors::kAxis);
 
   if (!plot.title.empty()) {
-    image.draw_text(static_cast<float>(plot.width) / 2.0f, pad, plot.title,
-                    {1.3f * ts, colors::kText, HAlign::kCenter, VAlign::kTop, false});
+    image.draw_text(static_cast<float>(plot.width) / 2.0f, l.pad, plot.title,
+                    {1.3f * l.ts, colors::kText, HAlign::kCenter, VAlign::kTop, false});
   }
   if (!plot.x_label.empty()) {
-    image.draw_text((px0 + px1) / 2.0f, py1 + pad + line + pad, plot.x_label, label_style);
+    image.draw_text((l.px0 + l.px1) / 2.0f, l.py1 + l.pad + l.line + l.pad, plot.x_label, label_style);
   }
   if (!plot.y_label.empty()) {
-    image.draw_text(pad, (py0 + py1) / 2.0f, plot.y_label, {ts, colors::kText, HAlign::kCenter, VAlign::kTop, true});
+    image.draw_text(l.pad, (l.py0 + l.py1) / 2.0f, plot.y_label,
+                    {l.ts, colors::kText, HAlign::kCenter, VAlign::kTop, true});
   }
+}
 
-  // Everything in data space is clipped to the plot area; lines are clipped analytically first so that values far
-  // outside fixed limits keep their true slope at the border.
-  image.set_clip(static_cast<int>(px0) + 1, static_cast<int>(py0) + 1, static_cast<int>(px1), static_cast<int>(py1));
-  const Eigen::Vector2d clip_lo(px0 - 10.0, py0 - 10.0), clip_hi(px1 + 10.0, py1 + 10.0);
+void draw_horizontal_lines(Image& image, const LinePlot& plot, const PlotLayout& l) {
   for (const auto& h : plot.horizontal_lines) {
-    const float y = static_cast<float>(to_px(x_lo, h.y).y());
-    if (h.dashed) image.draw_dashed_line({px0, y}, {px1, y}, h.color, 1.5f, 8.0f);
-    else image.draw_line({px0, y}, {px1, y}, h.color, 1.5f);
-    if (!h.label.empty() && y >= py0 && y <= py1) {
-      // Labels face away from zero (or the middle, if zero is off the plot), so that the two labels of a band like
-      // +-0.3 m sit outside it instead of on top of each other; at a border they turn inwards.
-      const double centre = y_lo < 0.0 && y_hi > 0.0 ? 0.0 : (y_lo + y_hi) / 2.0;
-      const bool below = (h.y < centre && py1 - y >= line) || y - py0 < line;
-      image.draw_text(px1 - pad, below ? y + pad / 2.0f : y - pad / 2.0f, h.label,
-                      {ts, h.color, HAlign::kRight, below ? VAlign::kTop : VAlign::kBottom, false});
-    }
+    const float y = static_cast<float>(l.to_px(l.x_lo, h.y).y());
+    if (h.dashed)
+      image.draw_dashed_line({l.px0, y}, {l.px1, y}, h.color, 1.5f, 8.0f);
+    else
+      image.draw_line({l.px0, y}, {l.px1, y}, h.color, 1.5f);
+    if (h.label.empty() || !(y >= l.py0 && y <= l.py1)) continue;
+    // Labels face away from zero (or the middle, if zero is off the plot), so that the two labels of a band like
+    // +-0.3 m sit outside it instead of on top of each other; at a border they turn inwards.
+    const double centre = l.y_lo < 0.0 && l.y_hi > 0.0 ? 0.0 : (l.y_lo + l.y_hi) / 2.0;
+    const bool below = (h.y < centre && l.py1 - y >= l.line) || y - l.py0 < l.line;
+    image.draw_text(l.px1 - l.pad, below ? y + l.pad / 2.0f : y - l.pad / 2.0f, h.label,
+                    {l.ts, h.color, HAlign::kRight, below ? VAlign::kTop : VAlign::kBottom, false});
   }
-  for (std::size_t i = 0; i < plot.series.size(); ++i) {
-    const auto& s = plot.series[i];
-    const Rgb color = s.color.value_or(palette_color(i));
-    std::vector<Eigen::Vector2f> run;
-    auto flush = [&] {
-      if (!run.empty()) image.draw_polyline(run, color, s.width);
-      run.clear();
-    };
-    for (std::size_t k = 0; k + 1 < s.x.size(); ++k) {
-      if (!std::isfinite(s.x[k]) || !std::isfinite(s.y[k]) || !std::isfinite(s.x[k + 1]) || !std::isfinite(s.y[k + 1])) {
-        flush();
-        continue;
-      }
-      Eigen::Vector2d a = to_px(s.x[k], s.y[k]), b = to_px(s.x[k + 1], s.y[k + 1]);
-      const Eigen::Vector2d a_before = a;
-      if (!clip_segment(a, b, clip_lo, clip_hi)) {
-        flush();
-        continue;
-      }
-      if (a != a_before) flush();  // the segment enters from outside: a new run starts at the border
-      if (run.empty()) run.push_back(a.cast<float>());
-      run.push_back(b.cast<float>());
-      if (b != to_px(s.x[k + 1], s.y[k + 1])) flush();  // it leaves the plot
-    }
-    // A lone finite point (between gaps, or the only one) would draw no segment: show it as a dot.
-    for (std::size_t k = 0; k < s.x.size(); ++k) {
-      const bool finite = std::isfinite(s.x[k]) && std::isfinite(s.y[k]);
-      const bool prev = k > 0 && std::isfinite(s.x[k - 1]) && std::isfinite(s.y[k - 1]);
-      const bool next = k + 1 < s.x.size() && std::isfinite(s.x[k + 1]) && std::isfinite(s.y[k + 1]);
-      if (finite && !prev && !next) image.fill_circle(to_px(s.x[k], s.y[k]).cast<float>(), s.width, color);
-    }
-    flush();
-  }
-  for (const auto& m : plot.markers) {
-    const float x = static_cast<float>(to_px(m.x, y_lo).x());
-    image.draw_dashed_line({x, py0}, {x, py1}, m.color, 1.5f, 8.0f);
-    if (!m.label.empty()) {
-      const Eigen::Vector2f size = text_size(m.label, ts);
-      const bool left_side = x + pad + size.x() > px1;  // no room to the right of the marker
-      const float tx = left_side ? x - pad : x + pad;
-      const float x0 = left_side ? tx - size.x() : tx;
-      image.fill_rect(x0 - 2.0f, py0 + pad - 2.0f, x0 + size.x() + 2.0f, py0 + pad + size.y() + 2.0f, colors::kWhite, 0.8f);
-      image.draw_text(tx, py0 + pad, m.label, {ts, m.color, left_side ? HAlign::kRight : HAlign::kLeft, VAlign::kTop, false});
-    }
-  }
-  image.reset_clip();
+}
 
-  if (!legend.empty()) draw_legend(image, px1 + pad, py0, legend, ts);
+// Lines are clipped analytically first so that values far outside fixed limits keep their true slope at the border
+// (and values beyond float's range still draw).
+void draw_series(Image& image, const PlotSeries& s, Rgb color, const PlotLayout& l) {
+  const Eigen::Vector2d clip_lo(l.px0 - 10.0, l.py0 - 10.0), clip_hi(l.px1 + 10.0, l.py1 + 10.0);
+  auto finite = [&s](std::size_t k) { return std::isfinite(s.x[k]) && std::isfinite(s.y[k]); };
+  std::vector<Eigen::Vector2f> run;
+  auto flush = [&] {
+    if (!run.empty()) image.draw_polyline(run, color, s.width);
+    run.clear();
+  };
+  for (std::size_t k = 0; k + 1 < s.x.size(); ++k) {
+    if (!finite(k) || !finite(k + 1)) {
+      flush();
+      continue;
+    }
+    const Eigen::Vector2d a_in = l.to_px(s.x[k], s.y[k]), b_in = l.to_px(s.x[k + 1], s.y[k + 1]);
+    Eigen::Vector2d a = a_in, b = b_in;
+    if (!render::clip_segment(a, b, clip_lo, clip_hi)) {
+      flush();
+      continue;
+    }
+    if (a != a_in) flush();  // the segment enters from outside: a new run starts at the border
+    if (run.empty()) run.push_back(a.cast<float>());
+    run.push_back(b.cast<float>());
+    if (b != b_in) flush();  // it leaves the plot
+  }
+  flush();
+  // A lone finite point (between gaps, or the only one) draws no segment: show it as a dot.
+  for (std::size_t k = 0; k < s.x.size(); ++k) {
+    if (finite(k) && !(k > 0 && finite(k - 1)) && !(k + 1 < s.x.size() && finite(k + 1))) {
+      image.fill_circle(l.to_px(s.x[k], s.y[k]).cast<float>(), s.width, color);
+    }
+  }
+}
+
+void draw_markers(Image& image, const LinePlot& plot, const PlotLayout& l) {
+  for (const auto& m : plot.markers) {
+    const float x = static_cast<float>(l.to_px(m.x, l.y_lo).x());
+    image.draw_dashed_line({x, l.py0}, {x, l.py1}, m.color, 1.5f, 8.0f);
+    if (m.label.empty()) continue;
+    const Eigen::Vector2f size = text_size(m.label, l.ts);
+    const bool left_side = x + l.pad + size.x() > l.px1;  // no room to the right of the marker
+    const float tx = left_side ? x - l.pad : x + l.pad;
+    const float x0 = left_side ? tx - size.x() : tx;
+    image.fill_rect(x0 - 2.0f, l.py0 + l.pad - 2.0f, x0 + size.x() + 2.0f, l.py0 + l.pad + size.y() + 2.0f,
+                    colors::kWhite, 0.8f);
+    image.draw_text(tx, l.py0 + l.pad, m.label,
+                    {l.ts, m.color, left_side ? HAlign::kRight : HAlign::kLeft, VAlign::kTop, false});
+  }
+}
+
+}  // namespace
+
+Image render_plot(const LinePlot& plot) {
+  for (const auto& s : plot.series) {
+    if (s.x.size() != s.y.size()) {
+      throw Error("plot series '" + s.label + "' has " + std::to_string(s.x.size()) + " x values but " +
+                  std::to_string(s.y.size()) + " y values");
+    }
+  }
+  if (!(plot.text_scale > 0.0f)) throw Error("plot text scale must be positive");
+  const PlotLayout l = layout_plot(plot);
+  Image image(plot.width, plot.height, colors::kWhite);
+  draw_axes(image, plot, l);
+  // Everything in data space is clipped to the plot area.
+  image.set_clip(static_cast<int>(l.px0) + 1, static_cast<int>(l.py0) + 1, static_cast<int>(l.px1),
+                 static_cast<int>(l.py1));
+  draw_horizontal_lines(image, plot, l);
+  for (std::size_t i = 0; i < plot.series.size(); ++i) {
+    draw_series(image, plot.series[i], plot.series[i].color.value_or(palette_color(i)), l);
+  }
+  draw_markers(image, plot, l);
+  image.reset_clip();
+  if (!l.legend.empty()) draw_legend(image, l.px1 + l.pad, l.py0, l.legend, l.ts);
   return image;
 }
 

@@ -1,6 +1,4 @@
-// The built-in office floor. Everything is a closed solid (box or extruded convex profile) with outward
-// normals, and solids overlap where they meet instead of sharing faces: a face shared by two solids points
-// both ways at once, which makes the sign of a mesh's distance field ambiguous there.
+// The built-in office floor, from closed solids that overlap where they meet (sim/building.hpp).
 //
 // Plan (x east 0..50 m, y north 0..20 m, floor z = 0, ceiling z = 3):
 //   corridor y 9..11.5 along the whole floor; at x 32..36 it climbs a 7 deg ramp to the east wing (x > 36),
@@ -8,12 +6,11 @@
 //   ramp and a wide opening to the corridor, three small offices, a lab, three offices in the east wing.
 //   North: a kitchen, three small offices, a conference room with two doors, an open office with a storage
 //   room behind it (reached only through the open office), three offices in the east wing.
-#include <algorithm>
-#include <cassert>
 #include <cmath>
+#include <utility>
 
-#include "sim/random.hpp"
-#include "sim/shapes.hpp"
+#include "building.hpp"
+#include "shapes.hpp"
 #include "tsdf_mcl/simulator.hpp"
 
 namespace tsdf_mcl::sim {
@@ -45,42 +42,10 @@ constexpr float kStageRampY1 = 3.0f;
 
 float floor_at(float x) { return x >= kWingX ? kWingHeight : 0.0f; }
 
-struct Rect {
-  float x0, y0, x1, y1;
-  Rect grown(float m) const { return {x0 - m, y0 - m, x1 + m, y1 + m}; }
-  bool overlaps(const Rect& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
-  bool contains(const Rect& o) const { return o.x0 >= x0 && o.x1 <= x1 && o.y0 >= y0 && o.y1 <= y1; }
-};
-
-void add_block(TriangleMesh& mesh, const Rect& r, float z0, float z1) {
-  add_box(mesh, Vector3f(r.x0, r.y0, z0), Vector3f(r.x1, r.y1, z1));
-}
-
-struct Opening {
-  float from, to;  // along the wall
-  float top;       // height of the lintel's underside
-};
-
-// A wall between `from` and `to` along one axis, centred on `line` across it, with openings; each opening
-// leaves a lintel from its top to the ceiling slab.
-void add_wall(TriangleMesh& mesh, bool along_x, float line, float from, float to, float thickness,
-              std::vector<Opening> openings) {
-  std::sort(openings.begin(), openings.end(), [](const Opening& a, const Opening& b) { return a.from < b.from; });
-  auto piece = [&](float a, float b, float z0, float z1) {
-    if (b - a < 1e-3f) return;
-    if (along_x) {
-      add_block(mesh, {a, line - thickness / 2, b, line + thickness / 2}, z0, z1);
-    } else {
-      add_block(mesh, {line - thickness / 2, a, line + thickness / 2, b}, z0, z1);
-    }
-  };
-  float cursor = from;
-  for (const Opening& o : openings) {
-    piece(cursor, o.from, -kSink, kCeiling + kSink);
-    piece(o.from, o.to, o.top, kCeiling + kSink);
-    cursor = o.to;
-  }
-  piece(cursor, to, -kSink, kCeiling + kSink);
+// Interior walls stand from inside the floor slab to inside the ceiling slab.
+void add_storey_wall(TriangleMesh& mesh, bool along_x, float line, float from, float to,
+                     std::vector<Opening> openings) {
+  add_wall(mesh, along_x, line, from, to, kWall, -kSink, kCeiling + kSink, std::move(openings));
 }
 
 Opening door(float centre, float width) {
@@ -96,140 +61,6 @@ struct Room {
   std::vector<float> doors;  // centres on the corridor wall
   float door_width = 1.0f;
 };
-
-// Places furniture in one room: items against the walls, larger pieces in the middle, a clear zone in
-// front of every door so the robot can get in.
-class Furnisher {
- public:
-  Furnisher(TriangleMesh& mesh, Rect interior, float floor, Rng rng)
-      : mesh_(mesh), interior_(interior), floor_(floor), rng_(rng) {}
-
-  void keep_clear(const Rect& r) { keep_out_.push_back(r); }
-
-  // Free-standing pieces (fixed by the plan) first: wall items then keep a robot-sized aisle to them.
-  void place_centre(const Rect& r, float height, bool legs) {
-    assert(interior_.grown(-1.0f).contains(r) && !blocked(r));
-    centre_.push_back(r);
-    if (legs) {
-      table(r, height);
-    } else {
-      add_block(mesh_, r, floor_ - 0.02f, floor_ + height);
-    }
-  }
-
-  // Walks along each wall, placing pieces with random gaps.
-  void line_walls(const std::vector<int>& kinds) {
-    for (int side = 0; side < 4; ++side) {
-      if (rng_.chance(0.2)) continue;
-      const bool along_x = side < 2;
-      const float start = along_x ? interior_.x0 : interior_.y0;
-      const float end = along_x ? interior_.x1 : interior_.y1;
-      float cursor = start + static_cast<float>(rng_.uniform(0.0, 0.6));
-      while (cursor < end) {
-        const int kind = kinds[rng_.below(kinds.size())];
-        const Piece p = piece(kind);
-        const Rect r = footprint(side, cursor, p.width, p.depth);
-        cursor += p.width + static_cast<float>(rng_.uniform(0.05, 0.9));
-        if (!interior_.contains(r) || blocked(r) || near_centre(r)) continue;
-        placed_.push_back(r);
-        if (p.legs) {
-          table(r, p.height);
-        } else {
-          add_block(mesh_, r, floor_ + p.bottom - (p.bottom > 0.0f ? 0.0f : 0.02f), floor_ + p.height);
-        }
-      }
-    }
-  }
-
-  static constexpr int kDesk = 0, kTallCabinet = 1, kSideboard = 2, kShelf = 3, kCounter = 4, kWhiteboard = 5;
-
- private:
-  struct Piece {
-    float width, depth, height, bottom;
-    bool legs;
-  };
-
-  Piece piece(int kind) {
-    auto u = [&](double a, double b) { return static_cast<float>(rng_.uniform(a, b)); };
-    switch (kind) {
-      case kDesk:
-        return {u(1.4, 1.8), 0.8f, 0.74f, 0.0f, true};
-      case kTallCabinet:
-        return {u(0.8, 1.0), 0.45f, u(1.9, 2.1), 0.0f, false};
-      case kSideboard:
-        return {u(0.8, 1.6), 0.45f, u(0.75, 0.85), 0.0f, false};
-      case kShelf:
-        return {u(0.8, 1.0), 0.35f, u(1.8, 2.2), 0.0f, false};
-      case kCounter:
-        return {u(1.8, 3.0), 0.6f, 0.9f, 0.0f, false};
-      default:
-        return {u(1.2, 2.0), 0.03f, u(1.9, 2.0), 0.9f, false};  // whiteboard hangs on the wall
-    }
-  }
-
-  // side 0: south wall, 1: north, 2: west, 3: east; `at` runs along the wall.
-  Rect footprint(int side, float at, float width, float depth) const {
-    switch (side) {
-      case 0:
-        return {at, interior_.y0, at + width, interior_.y0 + depth};
-      case 1:
-        return {at, interior_.y1 - depth, at + width, interior_.y1};
-      case 2:
-        return {interior_.x0, at, interior_.x0 + depth, at + width};
-      default:
-        return {interior_.x1 - depth, at, interior_.x1, at + width};
-    }
-  }
-
-  // Overlaps a clear zone, or comes within 5 cm of another piece.
-  bool blocked(const Rect& r) const {
-    for (const Rect& o : keep_out_) {
-      if (r.overlaps(o)) return true;
-    }
-    for (const auto* pieces : {&placed_, &centre_}) {
-      for (const Rect& o : *pieces) {
-        if (r.overlaps(o.grown(0.05f))) return true;
-      }
-    }
-    return false;
-  }
-
-  bool near_centre(const Rect& r) const {
-    for (const Rect& o : centre_) {
-      if (r.overlaps(o.grown(1.0f))) return true;
-    }
-    return false;
-  }
-
-  // A table top on four legs: the LiDAR sees under it, the robot cannot drive there.
-  void table(const Rect& r, float height) {
-    const float leg = 0.05f, top = 0.03f, inset = 0.04f;
-    add_block(mesh_, r, floor_ + height - top, floor_ + height);
-    for (int i = 0; i < 4; ++i) {
-      const float x = (i & 1) ? r.x1 - inset - leg : r.x0 + inset;
-      const float y = (i & 2) ? r.y1 - inset - leg : r.y0 + inset;
-      add_block(mesh_, {x, y, x + leg, y + leg}, floor_ - 0.02f, floor_ + height - top + 0.01f);
-    }
-  }
-
-  TriangleMesh& mesh_;
-  Rect interior_;
-  float floor_;
-  Rng rng_;
-  std::vector<Rect> keep_out_;
-  std::vector<Rect> placed_;
-  std::vector<Rect> centre_;
-};
-
-void add_shell(TriangleMesh& mesh) {
-  const float m = kOuterWall;
-  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, -kSlab, 0.0f);                // floor slab
-  add_block(mesh, {-m, -m, kLength + m, kWidth + m}, kCeiling, kCeiling + kSlab);  // ceiling slab
-  add_block(mesh, {-m, -m, kLength + m, 0.0f}, -kSink, kCeiling + kSink);
-  add_block(mesh, {-m, kWidth, kLength + m, kWidth + m}, -kSink, kCeiling + kSink);
-  add_block(mesh, {-m, 0.0f, 0.0f, kWidth}, -kSink, kCeiling + kSink);
-  add_block(mesh, {kLength, 0.0f, kLength + m, kWidth}, -kSink, kCeiling + kSink);
-}
 
 void add_levels(TriangleMesh& mesh) {
   // East wing floor, and the corridor ramp up to it (its flat tip overlaps the wing to avoid a shared face).
@@ -280,15 +111,15 @@ void add_walls(TriangleMesh& mesh, const std::vector<Room>& all) {
     for (float d : r.doors) (r.south ? south : north).push_back(door(d, r.door_width));
   }
   south.push_back({kHallOpening0, kHallOpening1, kHallOpeningTop});
-  add_wall(mesh, true, kCorridorSouth, 0.0f, kLength, kWall, south);
-  add_wall(mesh, true, kCorridorNorth, 0.0f, kLength, kWall, north);
+  add_storey_wall(mesh, true, kCorridorSouth, 0.0f, kLength, south);
+  add_storey_wall(mesh, true, kCorridorNorth, 0.0f, kLength, north);
   for (const Room& r : all) {
     if (r.x0 <= 0.0f) continue;
     const float y0 = r.south ? -kSink : kCorridorNorth;
     const float y1 = r.south ? kCorridorSouth : kWidth + kSink;
     std::vector<Opening> openings;
     if (r.kind == RoomKind::storage) openings.push_back({kStorageDoorY - 0.5f, kStorageDoorY + 0.5f, kDoorHeight});
-    add_wall(mesh, false, r.x0, y0, y1, kWall, openings);
+    add_storey_wall(mesh, false, r.x0, y0, y1, openings);
   }
 }
 
@@ -378,7 +209,7 @@ void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint6
 
 TriangleMesh office_scene(std::uint64_t seed) {
   TriangleMesh mesh;
-  add_shell(mesh);
+  add_shell(mesh, {kLength, kWidth, kCeiling, kSlab, kOuterWall, kSink});
   add_levels(mesh);
   const std::vector<Room> all = rooms();
   add_walls(mesh, all);

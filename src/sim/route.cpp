@@ -1,11 +1,15 @@
-#include "sim/route.hpp"
+#include "route.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <queue>
+#include <string>
+#include <tuple>
 
-#include "sim/random.hpp"
+#include "interpolate.hpp"
+#include "random.hpp"
 #include "tsdf_mcl/error.hpp"
 
 namespace tsdf_mcl::sim {
@@ -19,6 +23,8 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr double kSampleSpacing = 0.05;  // m between route samples
 constexpr double kCoverageRadius = 4.5;  // m: every free cell of a mapping route is this close to a waypoint
 constexpr double kRampApproach = 1.2;    // m driven on the level floor before and after a ramp
+constexpr double kLandmarkApproach[2] = {15.0, 45.0};  // m (geodesic) from the start to a landmark
+constexpr double kSnapDistance = 1.0;                  // m: requested points this close to the free region snap onto it
 
 float step_length(int s, double cell) { return static_cast<float>((s < 4 ? 1.0 : M_SQRT2) * cell); }
 
@@ -160,13 +166,14 @@ Pose base_pose_on_floor(const TraversabilityGrid& grid, const RayCaster& scene, 
 }
 
 // Drives the path: curvature- and acceleration-limited speed, turning on the spot where the path folds back.
+// With an initial yaw the path's first two points coincide: the robot first turns from that yaw on the spot.
 std::vector<Route::Sample> drive(const TraversabilityGrid& grid, const RayCaster& scene, const RobotModel& robot,
-                                 const std::vector<Vector2d>& points) {
+                                 const std::vector<Vector2d>& points, std::optional<double> initial_yaw) {
   const std::size_t n = points.size();
   std::vector<double> yaw(n);
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const Vector2d d = points[i + 1] - points[i];
-    yaw[i] = std::atan2(d.y(), d.x());
+    yaw[i] = i == 0 && initial_yaw ? *initial_yaw : std::atan2(d.y(), d.x());
     if (i > 0) yaw[i] = yaw[i - 1] + std::remainder(yaw[i] - yaw[i - 1], 2.0 * M_PI);
   }
   yaw[n - 1] = yaw[n - 2];
@@ -213,6 +220,19 @@ int nearest_free(const TraversabilityGrid& grid, const Vector2d& p) {
     }
   }
   return best;
+}
+
+// The free cell nearest to a requested point; `what` names the point in the error.
+int snap_to_free(const TraversabilityGrid& grid, const Vector2d& p, const std::string& what) {
+  const int i = nearest_free(grid, p);
+  const double d = (grid.center(i) - p).norm();
+  if (d > kSnapDistance) {
+    char msg[200];
+    std::snprintf(msg, sizeof(msg), "%s (%.2f, %.2f) lies %.1f m from the floor where the robot fits (at most %.1f m)",
+                  what.c_str(), p.x(), p.y(), d, kSnapDistance);
+    throw Error(msg);
+  }
+  return i;
 }
 
 // Farthest-point sampling of the free region by geodesic distance, then a short visiting order (nearest
@@ -287,12 +307,20 @@ int random_cell_at(const TraversabilityGrid& grid, const std::vector<float>& dis
   return candidates.empty() ? farthest : candidates[rng.below(candidates.size())];
 }
 
-std::vector<int> test_waypoints(const TraversabilityGrid& grid, Rng& rng, double min_length) {
+// start: a requested first cell (else the seed picks one); landmark: a cell the route must pass.
+std::vector<int> test_waypoints(const TraversabilityGrid& grid, Rng& rng, double min_length, std::optional<int> start,
+                                std::optional<int> landmark) {
   std::vector<int> points;
   double planned = 0.0;
   const auto ramps = find_ramps(grid);
-  if (ramps.empty()) {
-    points.push_back(grid.free_cells()[rng.below(grid.free_cells().size())]);
+  if (landmark) {
+    const std::vector<float> from_landmark = geodesic(grid, *landmark);
+    const int first =
+        start ? *start : random_cell_at(grid, from_landmark, kLandmarkApproach[0], kLandmarkApproach[1], rng);
+    points = {first, *landmark};
+    planned = from_landmark[first];
+  } else if (ramps.empty()) {
+    points.push_back(start ? *start : grid.free_cells()[rng.below(grid.free_cells().size())]);
   } else {
     const auto& ramp = ramps[rng.below(ramps.size())];
     float low = kInf, high = -kInf;
@@ -322,9 +350,9 @@ std::vector<int> test_waypoints(const TraversabilityGrid& grid, Rng& rng, double
     if (rng.chance(0.5)) std::swap(a, b);
     const std::vector<float> from_a = geodesic(grid, a);
     const double reach = std::max(4.0, std::min(20.0, 0.3 * min_length));
-    const int start = random_cell_at(grid, from_a, 2.0, reach, rng);
-    points = {start, a, b};
-    planned = from_a[start] + from_a[b];
+    const int first = start ? *start : random_cell_at(grid, from_a, 2.0, reach, rng);
+    points = {first, a, b};
+    planned = from_a[first] + from_a[b];
   }
   // Geodesic lengths overestimate the smoothed path a little: plan with a margin.
   while (planned < 1.1 * min_length + 5.0) {
@@ -374,20 +402,25 @@ Route::Route(std::vector<Sample> samples, std::vector<Eigen::Vector2d> waypoints
   if (samples_.size() < 2) throw Error("route has fewer than two poses");
 }
 
-Pose Route::base_pose(double time) const {
-  if (time <= samples_.front().time) return samples_.front().world_T_base;
-  if (time >= samples_.back().time) return samples_.back().world_T_base;
+// The samples around `time` and the fraction of the way from the first to the second.
+std::tuple<const Route::Sample&, const Route::Sample&, double> Route::bracket(double time) const {
+  if (time <= samples_.front().time) return {samples_.front(), samples_.front(), 0.0};
+  if (time >= samples_.back().time) return {samples_.back(), samples_.back(), 0.0};
   const auto it =
       std::upper_bound(samples_.begin(), samples_.end(), time, [](double t, const Sample& s) { return t < s.time; });
   const Sample& b = *it;
   const Sample& a = *(it - 1);
-  const double f = (time - a.time) / (b.time - a.time);
-  Pose out = Pose::Identity();
-  out.linear() = Eigen::Quaterniond(a.world_T_base.linear())
-                     .slerp(f, Eigen::Quaterniond(b.world_T_base.linear()))
-                     .toRotationMatrix();
-  out.translation() = (1.0 - f) * a.world_T_base.translation() + f * b.world_T_base.translation();
-  return out;
+  return {a, b, (time - a.time) / (b.time - a.time)};
+}
+
+Pose Route::base_pose(double time) const {
+  const auto [a, b, f] = bracket(time);
+  return &a == &b ? a.world_T_base : interpolate(a.world_T_base, b.world_T_base, f);
+}
+
+double Route::distance_at(double time) const {
+  const auto [a, b, f] = bracket(time);
+  return (1.0 - f) * a.distance + f * b.distance;
 }
 
 Route Route::truncated(double max_duration, double max_length) const {
@@ -401,11 +434,25 @@ Route Route::truncated(double max_duration, double max_length) const {
 }
 
 Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const RobotModel& robot, RouteKind kind,
-                 std::uint64_t seed, double min_length) {
+                 std::uint64_t seed, double min_length, const RouteRequest& request) {
   Rng rng(mix_key(seed, kind == RouteKind::mapping ? 1 : 2));
-  const std::vector<int> stops =
-      kind == RouteKind::mapping ? mapping_waypoints(grid, rng) : test_waypoints(grid, rng, min_length);
-  if (stops.size() < 2) throw Error("route planning: the free region is too small for a route");
+  const bool test = kind == RouteKind::test;
+  std::optional<int> start;
+  if (test && request.start) start = snap_to_free(grid, request.start->head<2>(), "route start");
+  std::vector<int> stops;
+  if (!test) {
+    stops = mapping_waypoints(grid, rng);
+  } else if (!request.waypoints.empty()) {
+    if (start) stops.push_back(*start);
+    for (std::size_t k = 0; k < request.waypoints.size(); ++k) {
+      stops.push_back(snap_to_free(grid, request.waypoints[k], "waypoint " + std::to_string(k + 1)));
+    }
+  } else {
+    std::optional<int> landmark;
+    if (request.landmark) landmark = snap_to_free(grid, *request.landmark, "landmark viewpoint");
+    stops = test_waypoints(grid, rng, min_length, start, landmark);
+  }
+  if (stops.size() < 2) throw Error("route planning: a route needs two places to drive between");
 
   std::vector<Vector2d> path{grid.center(stops[0])};
   std::vector<bool> fixed{true};
@@ -416,10 +463,17 @@ Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const R
       fixed.push_back(i + 1 == leg.size());
     }
   }
+  if (path.size() < 2) throw Error("route planning: the route's places are all one place");
   smooth(grid, path, fixed);
   std::vector<Vector2d> waypoints;
   for (int s : stops) waypoints.push_back(grid.center(s));
-  return Route(drive(grid, scene, robot, resample(path, kSampleSpacing)), std::move(waypoints));
+  std::vector<Vector2d> points = resample(path, kSampleSpacing);
+  std::optional<double> initial_yaw;
+  if (start) {
+    initial_yaw = request.start->z();
+    points.insert(points.begin(), points.front());
+  }
+  return Route(drive(grid, scene, robot, points, initial_yaw), std::move(waypoints));
 }
 
 }  // namespace tsdf_mcl::sim

@@ -1,4 +1,4 @@
-#include "sim/shapes.hpp"
+#include "shapes.hpp"
 
 #include <cassert>
 

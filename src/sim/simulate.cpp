@@ -3,14 +3,18 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <vector>
 
-#include "sim/random.hpp"
-#include "sim/route.hpp"
-#include "sim/shapes.hpp"
-#include "sim/traversability.hpp"
+#include "crowd.hpp"
+#include "platform.hpp"
+#include "random.hpp"
+#include "route.hpp"
+#include "shapes.hpp"
+#include "traversability.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/simulator.hpp"
@@ -27,10 +31,18 @@ namespace {
 constexpr double kDefaultTestLength = 60.0;  // m, when neither a duration nor a length is given
 constexpr double kObstacleSize = 0.5;        // m, footprint of a standing person
 constexpr double kObstacleHeight = 1.8;
-constexpr double kScanSpacingTurn = 30.0 * M_PI / 180.0;  // a turn that keeps a scan despite --scan-spacing
+constexpr double kScanSpacingTurn = 30.0 * M_PI / 180.0;  // a turn that keeps a scan despite --scan_spacing
 
 // Stream keys: one independent random stream per purpose.
-enum Stream : std::uint64_t { kObstacleStream = 10, kOdometryStream = 11, kScanNoiseStream = 12 };
+enum Stream : std::uint64_t {
+  kObstacleStream = 10,
+  kOdometryStream = 11,
+  kScanNoiseStream = 12,
+  kPlatformStream = 13,
+  kWalkerStream = 14
+};
+
+constexpr const char* kBuiltInScenes[] = {"office", "symmetric", "warehouse"};
 
 void require(bool ok, const std::string& message) {
   if (!ok) throw Error(message);
@@ -54,28 +66,40 @@ void validate(const SimulationOptions& o) {
   require(o.obstacles == 0 || o.route == RouteKind::test,
           "obstacles are unmapped objects: they belong in test runs, not in the mapping run");
   require(o.obstacles <= 1000, "at most 1000 obstacles");
+  require(o.walkers == 0 || o.route == RouteKind::test,
+          "walkers are unmapped people: they belong in test runs, not in the mapping run");
+  require(o.walkers <= 50, "at most 50 walkers");
   require(!std::isinf(o.ground_plane_z), "ground plane height must be finite");
+  require(std::abs(o.sensor_tilt_deg) <= 90.0, "sensor tilt must be within [-90, 90] deg");
+  require((!o.start && o.waypoints.empty()) || o.route == RouteKind::test,
+          "a start and waypoints shape test routes; a mapping route covers the whole floor");
+  require(!o.start || o.start->allFinite(), "the route start must be finite");
+  for (const Eigen::Vector2d& w : o.waypoints) require(w.allFinite(), "waypoints must be finite");
 }
 
-TriangleMesh load_scene(const SimulationOptions& o, std::string& description) {
-  TriangleMesh mesh;
-  if (o.scene == "office") {
-    mesh = office_scene(o.scene_seed);
-    description = "built-in office (scene seed " + std::to_string(o.scene_seed) + ")";
+bool is_built_in(const std::string& scene) {
+  return std::find(std::begin(kBuiltInScenes), std::end(kBuiltInScenes), scene) != std::end(kBuiltInScenes);
+}
+
+BuiltInScene load_scene(const SimulationOptions& o) {
+  BuiltInScene scene;
+  if (is_built_in(o.scene)) {
+    scene = built_in_scene(o.scene, o.scene_seed);
   } else {
     if (!fs::is_regular_file(o.scene)) {
-      throw Error("scene '" + o.scene + "' is neither 'office' nor an existing mesh file");
+      throw Error("scene '" + o.scene +
+                  "' is neither a built-in scene (office, symmetric, warehouse) nor an existing mesh file");
     }
-    mesh = load_mesh(o.scene);
-    if (mesh.triangles.empty()) throw Error("mesh " + o.scene + " has no triangles");
-    description = o.scene;
+    scene.mesh = load_mesh(o.scene);
+    if (scene.mesh.triangles.empty()) throw Error("mesh " + o.scene + " has no triangles");
+    scene.description = o.scene;
   }
   if (!std::isnan(o.ground_plane_z)) {
-    const Vector3f lo = mesh.min_corner(), hi = mesh.max_corner();
+    const Vector3f lo = scene.mesh.min_corner(), hi = scene.mesh.max_corner();
     const auto z = static_cast<float>(o.ground_plane_z);
-    add_box(mesh, Vector3f(lo.x() - 0.5f, lo.y() - 0.5f, z - 0.1f), Vector3f(hi.x() + 0.5f, hi.y() + 0.5f, z));
+    add_box(scene.mesh, Vector3f(lo.x() - 0.5f, lo.y() - 0.5f, z - 0.1f), Vector3f(hi.x() + 0.5f, hi.y() + 0.5f, z));
   }
-  return mesh;
+  return scene;
 }
 
 struct Obstacle {
@@ -97,7 +121,11 @@ std::vector<Obstacle> place_obstacles(const TraversabilityGrid& grid, const Rout
       const Vector2d forward = s.world_T_base.linear().col(0).head<2>().normalized();
       const Vector2d left(-forward.y(), forward.x());
       const double side = rng.chance(0.5) ? 1.0 : -1.0;
-      const Vector2d c = p + side * rng.uniform(keep_off_route, 2.5) * left + rng.uniform(-1.0, 1.0) * forward;
+      // Separate statements: the order in which the operands of one expression are evaluated is unspecified (gcc
+      // and clang differ), and the placement must not depend on the compiler (this is gcc's order).
+      const double along = rng.uniform(-1.0, 1.0);
+      const double across = rng.uniform(keep_off_route, 2.5);
+      const Vector2d c = p + side * across * left + along * forward;
       // Every cell under the footprint must be passable floor at one height.
       const int ci = grid.index_of(c);
       if (ci < 0 || std::isnan(grid.floor(ci))) continue;
@@ -131,18 +159,20 @@ std::vector<Obstacle> place_obstacles(const TraversabilityGrid& grid, const Rout
   return placed;
 }
 
-// Wheel odometry: the true base motion between two scans, perturbed in proportion to its size, integrated.
+// Odometry: the true motion of one frame (the ground robot's base, or the sensor) between two scans,
+// perturbed in proportion to its size, integrated from the frame's first pose in the odom frame.
 class Odometry {
  public:
-  Odometry(const OdometryNoise& noise, std::uint64_t seed) : noise_(noise), rng_(seed) {}
+  Odometry(const OdometryNoise& noise, std::uint64_t seed, const Pose& odom_T_first)
+      : noise_(noise), rng_(seed), odom_T_frame_(odom_T_first) {}
 
-  Pose step(const Pose& world_T_base) {
+  Pose step(const Pose& world_T_frame) {
     if (!last_) {
-      last_ = world_T_base;
-      return odom_T_base_;
+      last_ = world_T_frame;
+      return odom_T_frame_;
     }
-    const Pose motion = last_->inverse() * world_T_base;
-    last_ = world_T_base;
+    const Pose motion = last_->inverse() * world_T_frame;
+    last_ = world_T_frame;
     const double t = motion.translation().norm();
     const double a = Eigen::AngleAxisd(motion.linear()).angle();
     const double sigma_t = noise_.relative * (t + noise_.translation_floor);
@@ -154,15 +184,15 @@ class Odometry {
     const Vector3d rv = sigma_r * dr;
     if (rv.norm() > 0.0)
       noisy.linear() = motion.linear() * Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
-    odom_T_base_ = orthonormalized(odom_T_base_ * noisy);
-    return odom_T_base_;
+    odom_T_frame_ = orthonormalized(odom_T_frame_ * noisy);
+    return odom_T_frame_;
   }
 
  private:
   OdometryNoise noise_;
   Rng rng_;
   std::optional<Pose> last_;
-  Pose odom_T_base_ = Pose::Identity();
+  Pose odom_T_frame_;
 };
 
 void check_output_dir(const fs::path& dir) {
@@ -186,31 +216,152 @@ nlohmann::json pose_json(const Pose& p) {
           {"roll", rpy.x()},          {"pitch", rpy.y()},         {"yaw", rpy.z()}};
 }
 
+nlohmann::json kitti_json(const Pose& p) {
+  const auto k = kitti_of(p);
+  return {{k[0], k[1], k[2], k[3]}, {k[4], k[5], k[6], k[7]}, {k[8], k[9], k[10], k[11]}};
+}
+
+// When and how much of the landmark each scan sees.
+struct LandmarkSightings {
+  std::vector<std::size_t> points;  // per scan, returns on the landmark
+  std::optional<std::size_t> first_scan;
+  double first_time_s = 0.0, first_distance_m = 0.0;
+};
+
+// Where the walkers are and how much of them each scan sees.
+struct WalkerSightings {
+  std::vector<std::size_t> points;                 // per scan, returns on walkers
+  std::vector<std::vector<Eigen::Vector3f>> feet;  // per scan, each walker's foot point at the sweep's end
+};
+
+// Everything a run used and produced, for simulation.json.
+struct RunRecord {
+  const SimulationOptions& options;
+  const BuiltInScene& scene;  // its mesh holds the obstacles
+  const LidarModel& lidar;
+  const RobotModel& robot;
+  const Route& route;
+  const std::vector<Obstacle>& obstacles;
+  const LandmarkSightings& sightings;
+  const Crowd& crowd;
+  std::size_t sweeps;
+  const SimulationSummary& summary;
+};
+
+nlohmann::json scene_json(const RunRecord& r) {
+  const SimulationOptions& o = r.options;
+  const TriangleMesh& mesh = r.scene.mesh;
+  nlohmann::json j = {
+      {"source", o.scene},
+      {"description", r.scene.description},
+      {"scene_seed", o.scene_seed},
+      {"ground_plane_z", std::isnan(o.ground_plane_z) ? nlohmann::json() : nlohmann::json(o.ground_plane_z)},
+      {"triangles", mesh.triangles.size()},
+      {"min", {mesh.min_corner().x(), mesh.min_corner().y(), mesh.min_corner().z()}},
+      {"max", {mesh.max_corner().x(), mesh.max_corner().y(), mesh.max_corner().z()}},
+      {"traversable_area_m2", r.summary.traversable_area_m2},
+      {"file", "scene.ply"}};
+  if (r.scene.mirror) {
+    const Vector2d centre = r.scene.mirror->translation().head<2>() / 2.0;
+    char rule[320];
+    std::snprintf(rule, sizeof(rule),
+                  "half turn about the vertical through (%g, %g): (x, y, z, roll, pitch, yaw) -> (%g - x, %g - y, z, "
+                  "roll, pitch, yaw + 180 deg); mirror pose = world_T_mirror * world_T_sensor",
+                  centre.x(), centre.y(), 2.0 * centre.x(), 2.0 * centre.y());
+    j["symmetry"] = {{"world_T_mirror", kitti_json(*r.scene.mirror)}, {"rule", rule}};
+  }
+  return j;
+}
+
+nlohmann::json landmark_json(const Landmark& l, const LandmarkSightings& seen) {
+  const auto first = [&](auto value) { return seen.first_scan ? nlohmann::json(value) : nlohmann::json(); };
+  return {{"name", l.name},
+          {"min", {l.box.min().x(), l.box.min().y(), l.box.min().z()}},
+          {"max", {l.box.max().x(), l.box.max().y(), l.box.max().z()}},
+          {"triangles", {l.first_triangle, l.first_triangle + l.triangle_count}},
+          {"viewpoint", {l.viewpoint.x(), l.viewpoint.y()}},
+          {"first_seen_scan", first(seen.first_scan.value_or(0))},
+          {"first_seen_time_s", first(seen.first_time_s)},
+          {"first_seen_distance_m", first(seen.first_distance_m)},
+          {"scans_seeing", std::count_if(seen.points.begin(), seen.points.end(), [](std::size_t n) { return n > 0; })},
+          {"file", "landmark_points.txt: per scan, the returns on the landmark"}};
+}
+
+nlohmann::json crowd_json(const Crowd& crowd) {
+  nlohmann::json people = nlohmann::json::array();
+  for (const Crowd::Person& p : crowd.people()) {
+    nlohmann::json stops = nlohmann::json::array();
+    for (const Vector2d& w : p.waypoints) stops.push_back({w.x(), w.y()});
+    people.push_back({{"speed", p.speed}, {"waypoints", stops}});
+  }
+  const Walker shape;
+  return {
+      {"radius", shape.radius},
+      {"height", shape.height},
+      {"give_way_m", Crowd::kGiveWay},
+      {"people", people},
+      {"file", "walkers.txt: per scan, the returns on walkers, then x y z of each walker's foot at the sweep's end"}};
+}
+
+nlohmann::json platform_json(const SimulationOptions& o) {
+  nlohmann::json j = {{"sensor_tilt_deg", o.sensor_tilt_deg}};
+  switch (o.platform) {
+    case Platform::ground:
+      j["kind"] = "ground";
+      break;
+    case Platform::handheld:
+      j["kind"] = "handheld";
+      j["gait"] = {{"step_length", Gait::kStepLength}, {"bob", Gait::kBob},        {"roll_deg", Gait::kRollDeg},
+                   {"pitch_deg", Gait::kPitchDeg},     {"yaw_deg", Gait::kYawDeg}, {"drift_deg", Gait::kDriftDeg}};
+      break;
+    case Platform::drone:
+      j["kind"] = "drone";
+      j["flight"] = {{"min_height", Flight::kMinHeight},    {"max_height", Flight::kMaxHeight},
+                     {"lowest", Flight::kLowest},           {"headroom", Flight::kHeadroom},
+                     {"max_tilt_deg", Flight::kMaxTiltDeg}, {"max_yaw_offset_deg", Flight::kMaxYawOffsetDeg}};
+      break;
+  }
+  return j;
+}
+
+nlohmann::json route_json(const RunRecord& r) {
+  const SimulationOptions& o = r.options;
+  nlohmann::json waypoints = nlohmann::json::array();
+  for (const Vector2d& w : r.route.waypoints()) waypoints.push_back({w.x(), w.y()});
+  nlohmann::json j = {{"kind", o.route == RouteKind::mapping ? "mapping" : "test"},
+                      {"seed", o.seed},
+                      {"duration_limit_s", o.duration_s},
+                      {"length_limit_m", o.length_m},
+                      {"scan_spacing_m", o.scan_spacing_m},
+                      {"length_m", r.route.length()},
+                      {"duration_s", r.route.duration()},
+                      {"waypoints", waypoints},
+                      {"start", pose_json(r.route.samples().front().world_T_base)}};
+  if (o.start) j["requested_start"] = {o.start->x(), o.start->y(), o.start->z()};
+  if (!o.waypoints.empty()) {
+    nlohmann::json requested = nlohmann::json::array();
+    for (const Vector2d& w : o.waypoints) requested.push_back({w.x(), w.y()});
+    j["requested_waypoints"] = requested;
+  }
+  return j;
+}
+
 // simulation.json: every parameter, the scene, the route and the counts, to reproduce or interpret a run.
-void write_description(const fs::path& file, const SimulationOptions& options, const std::string& scene_description,
-                       const TriangleMesh& mesh, const LidarModel& lidar, const RobotModel& robot, const Route& route,
-                       const std::vector<Obstacle>& obstacles, std::size_t sweeps, const SimulationSummary& summary) {
+void write_description(const fs::path& file, const RunRecord& r) {
+  const SimulationOptions& o = r.options;
+  const RobotModel& robot = r.robot;
   nlohmann::json j;
-  j["scene"] = {{"source", options.scene},
-                {"description", scene_description},
-                {"scene_seed", options.scene_seed},
-                {"ground_plane_z",
-                 std::isnan(options.ground_plane_z) ? nlohmann::json() : nlohmann::json(options.ground_plane_z)},
-                {"triangles", mesh.triangles.size()},
-                {"min", {mesh.min_corner().x(), mesh.min_corner().y(), mesh.min_corner().z()}},
-                {"max", {mesh.max_corner().x(), mesh.max_corner().y(), mesh.max_corner().z()}},
-                {"traversable_area_m2", summary.traversable_area_m2},
-                {"file", "scene.ply"}};
-  j["lidar"] = {{"name", lidar.name},
-                {"elevations_deg", lidar.elevations_deg},
-                {"columns", lidar.columns},
-                {"min_range", lidar.min_range},
-                {"max_range", lidar.max_range},
-                {"rate_hz", lidar.rate_hz},
+  j["scene"] = scene_json(r);
+  j["lidar"] = {{"name", r.lidar.name},
+                {"elevations_deg", r.lidar.elevations_deg},
+                {"columns", r.lidar.columns},
+                {"min_range", r.lidar.min_range},
+                {"max_range", r.lidar.max_range},
+                {"rate_hz", r.lidar.rate_hz},
                 {"spin", "clockwise seen from above, column 0 along +x"},
-                {"range_sigma", options.noise.range_sigma},
-                {"dropout", options.noise.dropout},
-                {"motion_distortion", options.motion_distortion}};
+                {"range_sigma", o.noise.range_sigma},
+                {"dropout", o.noise.dropout},
+                {"motion_distortion", o.motion_distortion}};
   j["robot"] = {{"radius", robot.radius},
                 {"height", robot.height},
                 {"max_step", robot.max_step},
@@ -221,35 +372,52 @@ void write_description(const fs::path& file, const SimulationOptions& options, c
                 {"speed", robot.speed},
                 {"max_turn_rate", robot.max_turn_rate},
                 {"max_acceleration", robot.max_acceleration}};
-  j["odometry"] = {{"relative", options.odometry.relative},
-                   {"rotation_per_meter", options.odometry.rotation_per_meter},
-                   {"translation_floor", options.odometry.translation_floor},
-                   {"rotation_floor", options.odometry.rotation_floor},
-                   {"frame", "odom_T_sensor; the odom frame is the base's first pose"}};
-  nlohmann::json waypoints = nlohmann::json::array();
-  for (const Vector2d& w : route.waypoints()) waypoints.push_back({w.x(), w.y()});
-  j["route"] = {{"kind", options.route == RouteKind::mapping ? "mapping" : "test"},
-                {"seed", options.seed},
-                {"duration_limit_s", options.duration_s},
-                {"length_limit_m", options.length_m},
-                {"scan_spacing_m", options.scan_spacing_m},
-                {"length_m", route.length()},
-                {"duration_s", route.duration()},
-                {"waypoints", waypoints},
-                {"start", pose_json(route.samples().front().world_T_base)}};
+  j["platform"] = platform_json(o);
+  j["odometry"] = {
+      {"relative", o.odometry.relative},
+      {"rotation_per_meter", o.odometry.rotation_per_meter},
+      {"translation_floor", o.odometry.translation_floor},
+      {"rotation_floor", o.odometry.rotation_floor},
+      {"frame", o.platform == Platform::ground
+                    ? "odom_T_sensor; the odom frame is the base's first pose"
+                    : "odom_T_sensor from the sensor's own motion; the odom frame is the base's first pose"}};
+  j["route"] = route_json(r);
+  if (r.scene.landmark) j["landmark"] = landmark_json(*r.scene.landmark, r.sightings);
   nlohmann::json boxes = nlohmann::json::array();
-  for (const Obstacle& o : obstacles) {
-    boxes.push_back({{"min", {o.min.x(), o.min.y(), o.min.z()}}, {"max", {o.max.x(), o.max.y(), o.max.z()}}});
+  for (const Obstacle& b : r.obstacles) {
+    boxes.push_back({{"min", {b.min.x(), b.min.y(), b.min.z()}}, {"max", {b.max.x(), b.max.y(), b.max.z()}}});
   }
   j["obstacles"] = boxes;
-  j["counts"] = {{"sweeps", sweeps}, {"scans", summary.scans}, {"points", summary.points}};
+  if (!r.crowd.people().empty()) j["walkers"] = crowd_json(r.crowd);
+  j["counts"] = {{"sweeps", r.sweeps}, {"scans", r.summary.scans}, {"points", r.summary.points}};
   j["files"] = {{"scans", "scans/NNNNNN.bin: float32 x y z intensity, sensor frame"},
                 {"times", "times.txt: end of each sweep (s)"},
                 {"poses", "poses.txt: world_T_sensor at the end of each sweep, KITTI 3x4"},
                 {"odometry", "odom.txt: odom_T_sensor, KITTI 3x4"}};
+  write_file_atomically(file, j.dump(2) + "\n", "simulation description");
+}
+
+void write_landmark_points(const fs::path& file, const LandmarkSightings& seen) {
   std::ofstream out(file);
-  out << j.dump(2) << "\n";
+  for (std::size_t n : seen.points) out << n << "\n";
   if (!out) throw Error("cannot write " + file.string());
+}
+
+void write_walkers(const fs::path& file, const WalkerSightings& seen) {
+  std::ofstream out(file);
+  for (std::size_t i = 0; i < seen.points.size(); ++i) {
+    out << seen.points[i];
+    for (const Eigen::Vector3f& f : seen.feet[i]) out << ' ' << f.x() << ' ' << f.y() << ' ' << f.z();
+    out << "\n";
+  }
+  if (!out) throw Error("cannot write " + file.string());
+}
+
+std::size_t points_on(const Landmark& landmark, const std::vector<int>& triangles) {
+  const auto first = static_cast<int>(landmark.first_triangle);
+  const auto end = static_cast<int>(landmark.first_triangle + landmark.triangle_count);
+  return static_cast<std::size_t>(
+      std::count_if(triangles.begin(), triangles.end(), [&](int t) { return t >= first && t < end; }));
 }
 
 }  // namespace
@@ -260,50 +428,55 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   const LidarModel lidar = LidarModel::from_name(options.lidar, options.rate_hz);
   check_output_dir(out_dir);
 
-  std::string scene_description;
-  TriangleMesh mesh = load_scene(options, scene_description);
+  BuiltInScene scene = load_scene(options);
+  TriangleMesh& mesh = scene.mesh;
   const RayCaster static_scene(mesh);
-  // The sensor must not poke into what the robot drives under.
+  // The sensor must not poke into what the robot drives under (the drone keeps its own headroom).
   RobotModel robot = options.robot;
-  robot.height = std::max(robot.height, robot.sensor_height + 0.1);
+  if (options.platform != Platform::drone) robot.height = std::max(robot.height, robot.sensor_height + 0.1);
   const double min_floor =
       std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity() : options.ground_plane_z - 0.01;
   const TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
 
-  // A test route is planned at least as long as the run; a mapping route covers the floor.
+  // A test route is planned at least as long as the run (requested waypoints say where it ends); a mapping
+  // route covers the floor.
   double stop_length = options.length_m;
-  if (options.route == RouteKind::test && options.length_m == 0.0 && options.duration_s == 0.0) {
+  if (options.route == RouteKind::test && options.length_m == 0.0 && options.duration_s == 0.0 &&
+      options.waypoints.empty()) {
     stop_length = kDefaultTestLength;
   }
   const double plan_length = options.duration_s > 0.0 ? options.duration_s * robot.speed + 5.0 : stop_length;
-  const Route route = plan_route(grid, static_scene, robot, options.route, options.seed, plan_length)
+  RouteRequest request{options.start, options.waypoints, std::nullopt};
+  if (scene.landmark) request.landmark = scene.landmark->viewpoint;
+  const Route route = plan_route(grid, static_scene, robot, options.route, options.seed, plan_length, request)
                           .truncated(options.duration_s, stop_length);
+  const SensorTrajectory trajectory(route, static_scene, options.platform, robot, options.sensor_tilt_deg,
+                                    mix_key(options.seed, kPlatformStream));
+  const Crowd crowd(grid, static_scene, route, options.walkers, mix_key(options.seed, kWalkerStream));
 
   Rng obstacle_rng(mix_key(options.seed, kObstacleStream));
   const std::vector<Obstacle> obstacles = place_obstacles(grid, route, robot, options.obstacles, obstacle_rng);
   for (const Obstacle& o : obstacles) add_box(mesh, o.min, o.max);
-  const RayCaster scene(mesh);
+  const RayCaster ray_caster(mesh);
   save_mesh_ply(mesh, out_dir / "scene.ply");
 
   const double period = 1.0 / lidar.rate_hz;
   const auto sweeps = static_cast<std::size_t>(std::floor(route.duration() / period + 1e-9));
   if (sweeps == 0) throw Error("the route takes less than one scan period; ask for a longer duration or length");
-  Pose base_T_sensor = Pose::Identity();
-  base_T_sensor.translation().z() = robot.sensor_height;
 
   // Which sweeps become scans, and their poses: sequential, as odometry integrates every sweep.
   struct Sweep {
     std::size_t index;
     double time;
     Pose start, end, odom_T_sensor;
+    std::vector<Walker> walkers;
   };
   std::vector<Sweep> kept;
-  Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream));
+  Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream), trajectory.first_odometry_pose(period));
   for (std::size_t i = 0; i < sweeps; ++i) {
     const double t = static_cast<double>(i + 1) * period;
-    const Pose world_T_base = route.base_pose(t);
-    const Pose sensor_end = world_T_base * base_T_sensor;
-    const Pose odom_T_sensor = odometry.step(world_T_base) * base_T_sensor;
+    const Pose sensor_end = trajectory.sensor_pose(t);
+    const Pose odom_T_sensor = odometry.step(trajectory.odometry_frame_pose(t)) * trajectory.odometry_frame_T_sensor();
     if (!kept.empty() && options.scan_spacing_m > 0.0) {
       const Pose moved = kept.back().end.inverse() * sensor_end;
       if (moved.translation().norm() < options.scan_spacing_m &&
@@ -311,8 +484,8 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
         continue;
       }
     }
-    const Pose sensor_start = options.motion_distortion ? route.base_pose(t - period) * base_T_sensor : sensor_end;
-    kept.push_back({i, t, sensor_start, sensor_end, odom_T_sensor});
+    const double start_time = options.motion_distortion ? t - period : t;
+    kept.push_back({i, t, trajectory.sensor_pose(start_time), sensor_end, odom_T_sensor, crowd.during(start_time, t)});
   }
 
   // Scans in batches, one scan per thread: a fork and join per batch rather than per scan keeps both cores
@@ -320,19 +493,45 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   DatasetWriter writer(out_dir);
   const std::uint64_t noise_seed = mix_key(options.seed, kScanNoiseStream);
   SimulationSummary summary;
+  LandmarkSightings sightings;
+  WalkerSightings walker_sightings;
+  const bool label_points = scene.landmark || options.walkers > 0;
   constexpr std::size_t kBatch = 32;
   std::vector<PointCloud> clouds(kBatch);
+  std::vector<std::vector<int>> triangles(kBatch);
+  std::vector<std::vector<std::uint16_t>> rings(options.on_scan ? kBatch : 0);
   for (std::size_t first = 0; first < kept.size(); first += kBatch) {
     const auto count = static_cast<std::ptrdiff_t>(std::min(kBatch, kept.size() - first));
 #pragma omp parallel for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < count; ++k) {
       const Sweep& sw = kept[first + static_cast<std::size_t>(k)];
-      clouds[static_cast<std::size_t>(k)] =
-          simulate_scan(scene, lidar, sw.start, sw.end, options.noise, mix_key(noise_seed, sw.index));
+      const auto slot = static_cast<std::size_t>(k);
+      clouds[slot] = simulate_scan(
+          ray_caster, lidar, sw.start, sw.end, options.noise, mix_key(noise_seed, sw.index),
+          {sw.walkers, label_points ? &triangles[slot] : nullptr, options.on_scan ? &rings[slot] : nullptr});
     }
     for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
       const Sweep& sw = kept[first + k];
       writer.add(sw.time, clouds[k], sw.end, sw.odom_T_sensor);
+      if (options.on_scan) {
+        options.on_scan(
+            {sw.time, &clouds[k], &rings[k], sw.end, sw.odom_T_sensor, trajectory.odometry_frame_T_sensor()});
+      }
+      if (scene.landmark) {
+        sightings.points.push_back(points_on(*scene.landmark, triangles[k]));
+        if (!sightings.first_scan && sightings.points.back() > 0) {
+          sightings.first_scan = summary.scans;
+          sightings.first_time_s = sw.time;
+          sightings.first_distance_m = route.distance_at(sw.time);
+        }
+      }
+      if (options.walkers > 0) {
+        walker_sightings.points.push_back(
+            static_cast<std::size_t>(std::count(triangles[k].begin(), triangles[k].end(), -1)));
+        std::vector<Eigen::Vector3f> feet;
+        for (const Walker& w : sw.walkers) feet.push_back(w.end);
+        walker_sightings.feet.push_back(std::move(feet));
+      }
       ++summary.scans;
       summary.points += clouds[k].size();
       if (options.progress) options.progress(summary.scans, kept.size());
@@ -343,8 +542,12 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   summary.route_length_m = route.length();
   summary.duration_s = route.duration();
   summary.traversable_area_m2 = grid.free_area();
-  write_description(out_dir / "simulation.json", options, scene_description, mesh, lidar, robot, route, obstacles,
-                    sweeps, summary);
+  summary.has_landmark = scene.landmark.has_value();
+  summary.landmark_first_seen_scan = sightings.first_scan;
+  if (scene.landmark) write_landmark_points(out_dir / "landmark_points.txt", sightings);
+  if (options.walkers > 0) write_walkers(out_dir / "walkers.txt", walker_sightings);
+  write_description(out_dir / "simulation.json",
+                    {options, scene, lidar, robot, route, obstacles, sightings, crowd, sweeps, summary});
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return summary;
 }

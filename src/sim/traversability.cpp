@@ -1,4 +1,4 @@
-#include "sim/traversability.hpp"
+#include "traversability.hpp"
 
 #include <algorithm>
 #include <array>

@@ -4,31 +4,35 @@
 #include "options.hpp"
 #include "sensor_update_bench.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/limits.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
 namespace tsdf_mcl::cli {
 
 int run_bench(int argc, char** argv) {
-  Options o("bench",
-            "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
-            "[--spread local|global] [--backend cpu,vulkan]",
-            {
-                {"map", "MAP", "", "TSDF map file (tsdf-mcl build-map)"},
-                {"dataset", "DIR", "", "dataset with scans and poses.txt (the true pose places the particles)"},
-                {"scan", "K", "1", "index of the scan whose points are used"},
-                {"particles", "LIST", "1000,10000,50000,100000", "particle counts, comma-separated"},
-                {"points", "M", "1024", "scan points per particle (spread over the whole scan)"},
-                {"spread", "local|global", "local", "particles around the true pose (0.5 m, 10 deg) or uniform over the map"},
-                {"backend", "LIST", "cpu,vulkan", "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
-                {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
-                {"warmup", "W", "2", "untimed runs first (lavapipe compiles on the first dispatch)"},
-                {"sigma-hit", "M", "0.1", "endpoint model sigma (m)"},
-                {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
-                {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
-                {"seed", "N", "1", "random seed for the particle placement"},
-                {"map-reads", "texel|storage", "texel", "vulkan: read the map through texel-buffer views or the storage buffers"},
-            },
-            argc, argv, 2);
+  Options o(
+      "bench",
+      "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
+      "[--spread local|global] [--backend cpu,vulkan]",
+      {
+          {"map", "MAP", "", "TSDF map file (tsdf-mcl build-map)"},
+          {"dataset", "DIR", "", "dataset with scans and poses.txt (the true pose places the particles)"},
+          {"scan", "K", "1", "index of the scan whose points are used"},
+          {"particles", "LIST", "1000,10000,50000,100000", "particle counts, comma-separated"},
+          {"points", "M", "1024", "scan points per particle (spread over the whole scan)"},
+          {"spread", "local|global", "local", "particles around the true pose (0.5 m, 10 deg) or uniform over the map"},
+          {"backend", "LIST", "cpu,vulkan",
+           "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
+          {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
+          {"warmup", "W", "2", "untimed runs first (lavapipe compiles on the first dispatch)"},
+          {"sigma_hit", "M", "0.1", "endpoint model sigma (m)"},
+          {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
+          {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
+          {"seed", "N", "1", "random seed for the particle placement"},
+          {"map_reads", "texel|storage", "texel",
+           "vulkan: read the map through texel-buffer views or the storage buffers"},
+      },
+      argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
@@ -38,34 +42,40 @@ int run_bench(int argc, char** argv) {
   config.particle_counts.clear();
   for (double v : o.numbers("particles")) {
     if (v < 1 || v != std::floor(v)) throw Error("--particles needs positive integers");
+    if (v > static_cast<double>(limits::kMaxParticles)) {
+      throw Error("--particles " + std::to_string(static_cast<unsigned long long>(v)) + " is more than the limit of " +
+                  std::to_string(limits::kMaxParticles));
+    }
     config.particle_counts.push_back(static_cast<std::size_t>(v));
   }
-  config.points = o.count("points");
+  config.points = o.count("points", limits::kMaxBeams);
   if (config.points == 0) throw Error("--points must be positive");
   config.spread = o.text("spread");
   config.backends = o.list("backend");
   for (const auto& b : config.backends) {
     if (b != "cpu" && b != "vulkan" && b != "reference") throw Error("unknown backend '" + b + "'");
   }
-  config.repetitions = std::max<std::size_t>(1, o.count("repetitions"));
-  config.warmup = o.count("warmup");
+  config.repetitions = std::max<std::size_t>(1, o.count("repetitions", 1000));
+  config.warmup = o.count("warmup", 1000);
   config.seed = static_cast<unsigned>(o.count("seed"));
-  config.model.sigma_hit = static_cast<float>(o.number("sigma-hit"));
+  config.model.sigma_hit = static_cast<float>(o.number("sigma_hit"));
   const std::string likelihood = o.text("likelihood");
   if (likelihood != "product" && likelihood != "sum") throw Error("--likelihood must be product or sum");
   config.model.likelihood = likelihood == "product" ? Likelihood::kProduct : Likelihood::kSum;
   const std::string interpolation = o.text("interpolation");
-  if (interpolation != "nearest" && interpolation != "trilinear") throw Error("--interpolation must be nearest or trilinear");
+  if (interpolation != "nearest" && interpolation != "trilinear")
+    throw Error("--interpolation must be nearest or trilinear");
   config.model.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   config.model.validate();
-  const std::string map_reads = o.text("map-reads");
-  if (map_reads != "texel" && map_reads != "storage") throw Error("--map-reads must be texel or storage");
+  const std::string map_reads = o.text("map_reads");
+  if (map_reads != "texel" && map_reads != "storage") throw Error("--map_reads must be texel or storage");
   config.map_texel_views = map_reads == "texel";
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));
   const std::size_t k = o.count("scan");
-  if (k >= dataset.size()) throw Error("--scan " + std::to_string(k) + " but the dataset has " + std::to_string(dataset.size()) + " scans");
+  if (k >= dataset.size())
+    throw Error("--scan " + std::to_string(k) + " but the dataset has " + std::to_string(dataset.size()) + " scans");
   if (!dataset.has_poses()) throw Error("the dataset has no poses.txt (needed to place the particles)");
   config.map_name = o.text("map");
   config.scan_name = dataset.scan_path(k).string();

@@ -1,25 +1,85 @@
+#include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <string>
 
 #include "commands.hpp"
+#include "dataset_source.hpp"
 #include "options.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
+#include "tsdf_mcl/cloud_io.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/limits.hpp"
 #include "tsdf_mcl/map_builder.hpp"
 #include "tsdf_mcl/map_io.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {
 
+constexpr int kImportError = 2;  // the child's exit status for an import error it words itself
+
+// libhdf5 itself can crash on a crafted file (tests/data/libhdf5_crash_local_heap.h5) before any of our checks see
+// data, so the import runs in a child process: a crash there is one error line here, not a dead command.
+TsdfMap import_h5_isolated(const std::string& source, float truncation, std::uint64_t max_memory,
+                           const std::filesystem::path& scratch) {
+  int pipe_fds[2];
+  if (pipe(pipe_fds) != 0) throw Error(std::string("cannot isolate the HDF5 import: ") + std::strerror(errno));
+  std::fflush(nullptr);
+  const pid_t child = fork();
+  if (child < 0) throw Error(std::string("cannot isolate the HDF5 import: ") + std::strerror(errno));
+  if (child == 0) {
+    close(pipe_fds[0]);
+    // The library's own diagnostics (its error stack, or a sanitizer's crash report) are not this command's
+    // one-line error: the parent words it.
+    const int null_fd = open("/dev/null", O_WRONLY);
+    if (null_fd >= 0) dup2(null_fd, STDERR_FILENO);
+    std::string message;
+    try {
+      save_map(import_reference_h5(source, truncation, max_memory), scratch);
+      _exit(0);
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+    const ssize_t written = write(pipe_fds[1], message.data(), message.size());
+    _exit(written >= 0 ? kImportError : kImportError + 1);
+  }
+  close(pipe_fds[1]);
+  std::string message;
+  char buffer[512];
+  for (ssize_t got; (got = read(pipe_fds[0], buffer, sizeof(buffer))) > 0;)
+    message.append(buffer, static_cast<std::size_t>(got));
+  close(pipe_fds[0]);
+  int status = 0;
+  while (waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  std::error_code ec;
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+    TsdfMap map = load_map(scratch);
+    std::filesystem::remove(scratch, ec);
+    return map;
+  }
+  std::filesystem::remove(scratch, ec);
+  if (WIFEXITED(status) && WEXITSTATUS(status) == kImportError && !message.empty()) throw Error(message);
+  // Anything else is a crash: a signal, or a sanitizer's exit after catching one.
+  const std::string how = WIFSIGNALED(status)
+                              ? "signal " + std::to_string(WTERMSIG(status))
+                              : "exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+  throw Error(source + ": the HDF5 library crashed reading it (" + how + "): the file is corrupt");
+}
+
 namespace fs = std::filesystem;
 
-// Progress on stderr: one line rewritten in place on a terminal, a line per 10 % in logs.
+// Progress on stderr: one line rewritten in place on a terminal, a line per 10 % in logs. Nothing in the first
+// second: bad input fails within it with its error as the only line, and short builds need no progress.
 class ProgressLine {
  public:
-  explicit ProgressLine(std::string stage) : stage_(std::move(stage)), tty_(::isatty(STDERR_FILENO) != 0) {}
+  explicit ProgressLine(std::string stage)
+      : stage_(std::move(stage)), tty_(::isatty(STDERR_FILENO) != 0), started_(std::chrono::steady_clock::now()) {}
   ~ProgressLine() {
     if (tty_ && shown_ >= 0) std::fputc('\n', stderr);
   }
@@ -27,6 +87,7 @@ class ProgressLine {
   ProgressLine& operator=(const ProgressLine&) = delete;
 
   void operator()(std::size_t done, std::size_t total) {
+    if (std::chrono::steady_clock::now() - started_ < std::chrono::seconds(1)) return;
     const int percent = total == 0 ? 100 : static_cast<int>(100 * done / total);
     if (percent == shown_ || (!tty_ && percent / 10 == shown_ / 10 && shown_ >= 0)) return;
     shown_ = percent;
@@ -41,6 +102,7 @@ class ProgressLine {
  private:
   std::string stage_;
   bool tty_;
+  std::chrono::steady_clock::time_point started_;
   int shown_ = -1;
 };
 
@@ -50,28 +112,67 @@ std::string format(const char* fmt, double a, double b = 0.0) {
   return buf;
 }
 
+// The poses of `trajectory` at the dataset's scan times become its poses; the selected scans outside the
+// trajectory's times are left out (said on stderr). Returns the scans kept.
+std::vector<std::size_t> use_trajectory(Dataset& dataset, const std::vector<StampedPose>& trajectory,
+                                        const std::vector<std::size_t>& scans, const std::string& file) {
+  if (trajectory.empty()) throw Error(file + " holds no poses");
+  std::vector<Pose> poses(dataset.size(), Pose::Identity());
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < dataset.size(); ++i) {
+    const std::optional<Pose> p = pose_at(trajectory, dataset.time(i));
+    if (p) poses[i] = *p;
+    if (p && std::binary_search(scans.begin(), scans.end(), i)) kept.push_back(i);
+  }
+  if (kept.empty()) {
+    throw Error(file + " (" + format("%.3f..%.3f s", trajectory.front().time, trajectory.back().time) +
+                ") covers none of the selected scans' times");
+  }
+  if (kept.size() < scans.size()) {
+    std::fprintf(stderr, "build-map: %zu of the %zu selected scans lie outside the times of %s: left out\n",
+                 scans.size() - kept.size(), scans.size(), file.c_str());
+  }
+  dataset.set_poses(std::move(poses));
+  return kept;
+}
+
 }  // namespace
 
 int run_build_map(int argc, char** argv) {
-  Options o("build-map",
-            "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N] | --import-h5 FILE "
-            "[--voxel M] [--truncation M] -o MAP",
-            {
-                {"mesh", "FILE", "", "triangle mesh (STL, PLY, OBJ; need not be watertight) to build the map from"},
-                {"dataset", "DIR", "", "dataset whose scans are integrated at the poses of its poses.txt"},
-                {"import-h5", "FILE", "", "HDF5 map of the reference implementation to convert (0.064 m voxels)"},
-                {"start", "S", "0", "--dataset: first scan"},
-                {"stride", "K", "1", "--dataset: use every K-th scan"},
-                {"count", "N", "0", "--dataset: number of scans (0 = all remaining)"},
-                {"voxel", "M", "0.05", "voxel size (m); not with --import-h5"},
-                {"truncation", "M", "", "truncation distance (m) [default: 0.3; 0.6 with --import-h5]"},
-                {"margin", "M", "1.0", "--mesh/--dataset: space added around the mesh or the observed box (m)"},
-                {"min-range", "M", "0.3", "--dataset: ignore points closer to the sensor (m)"},
-                {"max-range", "M", "60", "--dataset: ignore points farther from the sensor (m)"},
-                {"no-free-space", "", "", "--mesh: leave blocks beyond the band unknown instead of filling free space"},
-                {"output", "MAP", "", "map file to write"},
-            },
-            argc, argv, 2);
+  Options o(
+      "build-map",
+      "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N] | --cloud FILE "
+      "[--trajectory FILE.tum|DIR] | --import_h5 FILE [--voxel M] [--truncation M] -o MAP\n"
+      "       tsdf-mcl build-map --bag FILE --points TOPIC --ground_truth_topic TOPIC | --trajectory FILE.tum ... -o "
+      "MAP",
+      with_bag_options({
+          {"mesh", "FILE", "", "triangle mesh (STL, PLY, OBJ; need not be watertight) to build the map from"},
+          {"dataset", "DIR", "", "dataset whose scans are integrated at the poses of its poses.txt"},
+          {"cloud", "FILE", "", "point cloud map (.pcd ascii/binary/binary_compressed, .ply) to build the map from"},
+          {"trajectory", "FILE", "",
+           "the mapping run's trajectory. --dataset/--bag: integrate the scans at these poses (TUM, world_T_sensor, "
+           "interpolated at the scans' times) instead of the ground truth; scans outside its times are left out. "
+           "--cloud: the sensor positions (a TUM file or a dataset folder's poses.txt), which orient normals and "
+           "carve free space along sight lines"},
+          {"import_h5", "FILE", "", "HDF5 map of the reference implementation to convert (0.064 m voxels)"},
+          {"start", "S", "0", "--dataset: first scan"},
+          {"stride", "K", "1", "--dataset: use every K-th scan"},
+          {"count", "N", "0", "--dataset: number of scans (0 = all remaining)"},
+          {"voxel", "M", "0.05", "voxel size (m); not with --import_h5"},
+          {"truncation", "M", "", "truncation distance (m) [default: 0.3; 0.6 with --import_h5]"},
+          {"margin", "M", "1.0", "--mesh/--dataset: space added around the mesh or the observed box (m)"},
+          {"laser_min_range", "M", "0.3", "--dataset: ignore points closer to the sensor (m)"},
+          {"laser_max_range", "M", "60",
+           "--dataset: ignore points farther from the sensor (m); --cloud --trajectory: "
+           "farthest point a trajectory position sees"},
+          {"no_free_space", "", "",
+           "--mesh: leave blocks beyond the band unknown instead of filling free space; --cloud: "
+           "free space along sight lines only, no filling of enclosed regions"},
+          {"max_memory", "MIB", std::to_string(limits::kDefaultBuildMemoryMiB),
+           "memory budget of the build (the map and the builder's buffers); building stops with an error past it"},
+          {"output", "MAP", "", "map file to write"},
+      }),
+      argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
@@ -79,24 +180,33 @@ int run_build_map(int argc, char** argv) {
   if (!o.positional().empty()) {
     throw Error("unexpected argument '" + o.positional().front() + "' (the map file goes after -o)");
   }
-  const int sources = static_cast<int>(o.has("mesh")) + static_cast<int>(o.has("dataset")) + static_cast<int>(o.has("import-h5"));
-  if (sources == 0) throw Error("no source: give --mesh FILE, --dataset DIR or --import-h5 FILE");
-  if (sources > 1) throw Error("give only one source of --mesh, --dataset and --import-h5");
+  const bool scans_source = o.has("dataset") || o.has("bag");
+  const int sources = static_cast<int>(o.has("mesh")) + static_cast<int>(o.has("dataset")) +
+                      static_cast<int>(o.has("bag")) + static_cast<int>(o.has("cloud")) +
+                      static_cast<int>(o.has("import_h5"));
+  if (sources == 0)
+    throw Error("no source: give --mesh FILE, --dataset DIR, --bag FILE, --cloud FILE or --import_h5 FILE");
+  if (sources > 1) throw Error("give only one source of --mesh, --dataset, --bag, --cloud and --import_h5");
   if (!o.has("output")) throw Error("missing -o MAP (the map file to write)");
   const fs::path output = o.text("output");
   if (output.empty()) throw Error("-o needs a file name");
-  const fs::path output_dir = output.has_parent_path() ? output.parent_path() : fs::path(".");
-  if (!fs::is_directory(output_dir)) throw Error("output folder " + output_dir.string() + " does not exist");
-  if (!o.has("dataset")) {
-    for (const char* name : {"start", "stride", "count", "min-range", "max-range"}) {
-      if (o.has(name)) throw Error(std::string("build-map: --") + name + " applies to --dataset only");
+  check_output_file(output, "map");
+  if (!scans_source) {
+    for (const char* name : {"start", "stride", "count", "laser_min_range"}) {
+      if (o.has(name)) throw Error(std::string("build-map: --") + name + " applies to --dataset and --bag only");
+    }
+    for (const char* name : {"laser_max_range", "trajectory"}) {
+      if (o.has(name) && !o.has("cloud")) {
+        throw Error(std::string("build-map: --") + name + " applies to --dataset, --bag and --cloud only");
+      }
     }
   }
-  if (!o.has("mesh") && o.has("no-free-space")) throw Error("--no-free-space applies to --mesh only");
+  if (!o.has("mesh") && !o.has("cloud") && o.has("no_free_space"))
+    throw Error("--no_free_space applies to --mesh and --cloud only");
 
-  const bool h5 = o.has("import-h5");
+  const bool h5 = o.has("import_h5");
   if (h5 && (o.has("voxel") || o.has("margin"))) {
-    throw Error("--import-h5 keeps the reference map's 0.064 m voxels and extent (no --voxel, --margin)");
+    throw Error("--import_h5 keeps the reference map's 0.064 m voxels and extent (no --voxel, --margin)");
   }
   const double voxel = h5 ? 0.064 : o.number("voxel");
   const double truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
@@ -107,45 +217,70 @@ int run_build_map(int argc, char** argv) {
   }
   const double margin = o.number("margin");
   if (margin < 0.0) throw Error("--margin must not be negative");
+  const std::uint64_t max_memory = std::uint64_t{o.count("max_memory", std::size_t{1} << 30)} << 20;
 
   const auto started = std::chrono::steady_clock::now();
   TsdfMap map;
   std::string source;
   if (h5) {
-    source = o.text("import-h5");
-    map = import_reference_h5(source, static_cast<float>(truncation));
+    source = o.text("import_h5");
+    map = import_h5_isolated(source, static_cast<float>(truncation), max_memory,
+                             output.string() + ".import-" + std::to_string(getpid()) + ".tmp");
   } else if (o.has("mesh")) {
     source = o.text("mesh");
     const TriangleMesh mesh = load_mesh(source);
-    std::fprintf(stderr, "build-map: %s: %zu vertices, %zu triangles\n", source.c_str(), mesh.vertices.size(),
-                 mesh.triangles.size());
     MeshMapOptions options;
     options.voxel_size = static_cast<float>(voxel);
     options.truncation = static_cast<float>(truncation);
     options.margin = static_cast<float>(margin);
-    options.fill_free_space = !o.flag("no-free-space");
-    ProgressLine progress("signed distances");
+    options.fill_free_space = !o.flag("no_free_space");
+    options.max_memory_bytes = max_memory;
+    ProgressLine progress(source + " (" + std::to_string(mesh.vertices.size()) + " vertices, " +
+                          std::to_string(mesh.triangles.size()) + " triangles): signed distances");
     map = build_map_from_mesh(mesh, options, std::ref(progress));
+  } else if (o.has("cloud")) {
+    source = o.text("cloud");
+    CloudMapOptions options;
+    options.voxel_size = static_cast<float>(voxel);
+    options.truncation = static_cast<float>(truncation);
+    options.margin = static_cast<float>(margin);
+    options.max_range = static_cast<float>(o.number("laser_max_range"));
+    options.fill_free_space = !o.flag("no_free_space");
+    options.max_memory_bytes = max_memory;
+    if (o.has("trajectory")) options.trajectory = read_trajectory_positions(o.text("trajectory"));
+    CloudReader reader(source, max_memory);
+    CloudMapReport report;
+    {
+      ProgressLine progress(source + " (" + reader.format() + ", " + std::to_string(reader.size_hint()) + " points)");
+      map = build_map_from_cloud(reader, options, std::ref(progress), &report);
+    }
+    std::fprintf(stderr, "%s", describe(report).c_str());
   } else {
-    source = o.text("dataset");
-    const Dataset dataset = Dataset::open(source);
-    if (!dataset.has_poses()) {
-      throw Error("dataset " + source + " has no poses.txt (scans are integrated at their world_T_sensor poses)");
-    }
+    source = o.has("bag") ? o.text("bag") : o.text("dataset");
+    Dataset dataset = open_dataset(o);
     const ScanSelection selection{o.count("start"), o.count("stride"), o.count("count")};
-    const std::vector<std::size_t> scans = selection.indices(dataset.size());
+    std::vector<std::size_t> scans = selection.indices(dataset.size());
     if (scans.empty()) {
-      throw Error("--start " + o.text("start") + " --stride " + o.text("stride") + " --count " +
-                  o.text("count") + " selects none of the " + std::to_string(dataset.size()) + " scans");
+      throw Error("--start " + o.text("start") + " --stride " + o.text("stride") + " --count " + o.text("count") +
+                  " selects none of the " + std::to_string(dataset.size()) + " scans");
     }
+    if (const auto trajectory_file = o.maybe("trajectory")) {
+      scans = use_trajectory(dataset, read_tum(*trajectory_file), scans, *trajectory_file);
+    } else if (!dataset.has_poses()) {
+      throw Error(dataset.missing_poses() +
+                  " (scans are integrated at their world_T_sensor poses; or give --trajectory FILE.tum)");
+    }
+    if (!dataset.summary().empty()) std::fprintf(stderr, "build-map: %s\n", dataset.summary().c_str());
     ScanMapOptions options;
     options.voxel_size = static_cast<float>(voxel);
     options.truncation = static_cast<float>(truncation);
     options.margin = static_cast<float>(margin);
-    options.min_range = static_cast<float>(o.number("min-range"));
-    options.max_range = static_cast<float>(o.number("max-range"));
-    std::fprintf(stderr, "build-map: integrating %zu of %zu scans of %s\n", scans.size(), dataset.size(), source.c_str());
-    ProgressLine progress("integrating scans");
+    options.min_range = static_cast<float>(o.number("laser_min_range"));
+    options.max_range = static_cast<float>(o.number("laser_max_range"));
+    options.max_memory_bytes = max_memory;
+    dataset.check_scans_not_empty(scans);
+    ProgressLine progress("integrating " + std::to_string(scans.size()) + " of " + std::to_string(dataset.size()) +
+                          " scans of " + source);
     map = build_map_from_scans(dataset, scans, options, std::ref(progress));
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -1,14 +1,19 @@
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "dataset_source.hpp"
 #include "options.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/image.hpp"
+#include "tsdf_mcl/input_file.hpp"
+#include "tsdf_mcl/limits.hpp"
 #include "tsdf_mcl/plot.hpp"
 #include "tsdf_mcl/trajectory_metrics.hpp"
 
@@ -43,7 +48,8 @@ void plot_errors(const TrajectoryMetrics& m, const MetricsOptions& mo, const std
   LinePlot all = error_plot(m, 0, "translation error per axis");
   char band[32];
   std::snprintf(band, sizeof(band), "%.2f m", mo.max_translation_error);
-  all.horizontal_lines = {{mo.max_translation_error, std::string("+") + band}, {-mo.max_translation_error, std::string("-") + band}};
+  all.horizontal_lines = {{mo.max_translation_error, std::string("+") + band},
+                          {-mo.max_translation_error, std::string("-") + band}};
   if (!m.converged) {
     write_plot_png(all, file);
     return;
@@ -57,27 +63,72 @@ void plot_errors(const TrajectoryMetrics& m, const MetricsOptions& mo, const std
   save_png(both, file);
 }
 
+// The localizer's `converged` flag per estimate, from its report.json (localize writes one line per scan, in
+// the trajectory's order and with the same times).
+std::vector<bool> converged_claims(const std::string& report_file, const std::vector<StampedPose>& estimate) {
+  const std::string text = read_input_file(report_file, "report", limits::kMaxReportFileBytes);
+  nlohmann::json report;
+  try {
+    report = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(report_file + ": not valid JSON (" + std::string(e.what()) + ")");
+  }
+  if (!report.is_object() || !report.contains("scans") || !report["scans"].is_array()) {
+    throw Error(report_file + ": no \"scans\" list (not a localize report)");
+  }
+  const nlohmann::json& scans = report["scans"];
+  if (scans.size() != estimate.size()) {
+    throw Error(report_file + " describes " + std::to_string(scans.size()) + " scans but the trajectory has " +
+                std::to_string(estimate.size()) + " poses (not the same run?)");
+  }
+  std::vector<bool> claims;
+  claims.reserve(scans.size());
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    const nlohmann::json& s = scans[i];
+    if (!s.is_object() || !s.contains("time") || !s["time"].is_number() || !s.contains("converged") ||
+        !s["converged"].is_boolean()) {
+      throw Error(report_file + ": scan entry " + std::to_string(i) + " lacks time or converged");
+    }
+    if (std::abs(s["time"].get<double>() - estimate[i].time) > 1e-6) {
+      throw Error(report_file + ": scan entry " + std::to_string(i) +
+                  " is not at the trajectory's time (not the same run?)");
+    }
+    claims.push_back(s["converged"].get<bool>());
+  }
+  return claims;
+}
+
 }  // namespace
 
 int run_evaluate(int argc, char** argv) {
-  Options o("evaluate", "tsdf-mcl evaluate --estimate OUT/trajectory.tum --dataset DIR [--plot FILE.png]",
-            {
-                {"estimate", "FILE", "", "estimated trajectory (TUM: t x y z qx qy qz qw, world_T_sensor)"},
-                {"dataset", "DIR", "", "dataset whose poses.txt and times.txt are the ground truth"},
-                {"plot", "FILE.png", "", "also draw the translation error per axis over time"},
-                {"max_translation_error", "M", "0.3", "a scan counts as localized within this distance (m)"},
-                {"max_rotation_error", "DEG", "5", "... and within this rotation error (degrees)"},
-                {"time_tolerance", "S", "0.02", "estimates without an exact timestamp match take the nearest ground truth within this (s)"},
-            },
-            argc, argv, 2);
+  Options o(
+      "evaluate",
+      "tsdf-mcl evaluate --estimate OUT/trajectory.tum --dataset DIR | --bag FILE --points TOPIC "
+      "--ground_truth_topic TOPIC [--plot FILE.png]",
+      with_bag_options({
+          {"estimate", "FILE", "", "estimated trajectory (TUM: t x y z qx qy qz qw, world_T_sensor)"},
+          {"dataset", "DIR", "", "dataset whose poses.txt and times.txt are the ground truth"},
+          {"plot", "FILE.png", "", "also draw the translation error per axis over time"},
+          {"max_translation_error", "M", "0.3", "a scan counts as localized within this distance (m)"},
+          {"max_rotation_error", "DEG", "5", "... and within this rotation error (degrees)"},
+          {"time_tolerance", "S", "0.02",
+           "estimates without an exact timestamp match take the nearest ground truth within this (s)"},
+          {"report", "FILE", "",
+           "localize's report.json, for its converged flags [default: report.json beside the estimate, if there]"},
+          {"false_convergence_translation", "M", "1",
+           "a converged flag is false where the estimate is off by more than this (m)"},
+          {"false_convergence_rotation", "DEG", "10", "... or by more than this rotation (degrees)"},
+      }),
+      argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
   }
   o.expect_positional(0, "no positional arguments");
   const std::string estimate_file = o.text("estimate");
-  const Dataset dataset = Dataset::open(o.text("dataset"));
-  if (!dataset.has_poses()) throw Error("dataset " + dataset.dir().string() + " has no poses.txt (ground truth)");
+  if (const auto plot = o.maybe("plot")) check_output_file(*plot, "plot");
+  const Dataset dataset = open_dataset(o);
+  if (!dataset.has_poses()) throw Error(dataset.missing_poses() + " (ground truth)");
   MetricsOptions mo;
   mo.max_translation_error = o.number("max_translation_error");
   mo.max_rotation_error = o.number("max_rotation_error") / kDeg;
@@ -85,9 +136,25 @@ int run_evaluate(int argc, char** argv) {
   if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
     throw Error("thresholds must be positive and the time tolerance non-negative");
   }
+  mo.false_convergence_translation = o.number("false_convergence_translation");
+  mo.false_convergence_rotation = o.number("false_convergence_rotation") / kDeg;
+  if (!(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
+    throw Error("false-convergence thresholds must be positive");
+  }
   const std::vector<StampedPose> estimate = read_tum(estimate_file);
   if (estimate.empty()) throw Error("" + estimate_file + " holds no poses");
-  const TrajectoryMetrics m = evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo);
+  std::string report_file;
+  if (const auto r = o.maybe("report")) {
+    report_file = *r;
+  } else {
+    const std::filesystem::path beside = std::filesystem::path(estimate_file).parent_path() / "report.json";
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(beside, ec)) report_file = beside.string();
+  }
+  std::vector<bool> claims;
+  if (!report_file.empty()) claims = converged_claims(report_file, estimate);
+  const TrajectoryMetrics m =
+      evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo, report_file.empty() ? nullptr : &claims);
 
   nlohmann::json j;
   j["estimate"] = estimate_file;
@@ -98,9 +165,8 @@ int run_evaluate(int argc, char** argv) {
   j["thresholds"] = {{"translation_m", mo.max_translation_error}, {"rotation_deg", mo.max_rotation_error * kDeg}};
   if (m.converged) {
     const PoseError& first = m.errors[m.convergence_index];
-    j["convergence"] = {{"estimate_index", m.convergence_index},
-                        {"scan", first.truth_index},
-                        {"time_s", m.convergence_time}};
+    j["convergence"] = {
+        {"estimate_index", m.convergence_index}, {"scan", first.truth_index}, {"time_s", m.convergence_time}};
     j["after_convergence"] = {{"scans", m.converged_count},
                               {"ate_rmse_m", m.ate_rmse},
                               {"rotation_rmse_deg", m.rotation_rmse * kDeg},
@@ -109,6 +175,20 @@ int run_evaluate(int argc, char** argv) {
   } else {
     j["convergence"] = nullptr;
     j["after_convergence"] = nullptr;
+  }
+  if (m.has_claims) {
+    j["false_convergence"] = {
+        {"report", report_file},
+        {"claimed_converged_scans", m.claimed_converged},
+        {"false_claims", m.false_convergence},
+        {"first_false_scan",
+         m.false_convergence > 0 ? nlohmann::json(m.errors[m.first_false_index].truth_index) : nlohmann::json(nullptr)},
+        {"first_false_time_s", m.false_convergence > 0 ? nlohmann::json(m.first_false_time) : nlohmann::json(nullptr)},
+        {"thresholds",
+         {{"translation_m", mo.false_convergence_translation},
+          {"rotation_deg", mo.false_convergence_rotation * kDeg}}}};
+  } else {
+    j["false_convergence"] = nullptr;
   }
   if (const auto plot = o.maybe("plot")) {
     plot_errors(m, mo, *plot);
@@ -124,9 +204,23 @@ int run_evaluate(int argc, char** argv) {
                  100.0 * m.localized_fraction, m.ate_rmse, m.rotation_rmse * kDeg, m.max_translation_error,
                  m.max_rotation_error * kDeg);
   } else {
-    std::fprintf(stderr, "evaluate: %zu scans; NOT converged (the last estimate is off by %.3f m / %.2f deg); %.1f %% localized\n",
-                 m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
-                 100.0 * m.localized_fraction);
+    std::fprintf(
+        stderr,
+        "evaluate: %zu scans; NOT converged (the last estimate is off by %.3f m / %.2f deg); %.1f %% localized\n",
+        m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
+        100.0 * m.localized_fraction);
+  }
+  if (m.has_claims && m.false_convergence > 0) {
+    std::fprintf(stderr,
+                 "evaluate: FALSE CONVERGENCE: the localizer said converged at %zu of its %zu converged scans while "
+                 "more than %.1f m or %.0f deg off (first at scan %zu, %.1f s)\n",
+                 m.false_convergence, m.claimed_converged, mo.false_convergence_translation,
+                 mo.false_convergence_rotation * kDeg, m.errors[m.first_false_index].truth_index, m.first_false_time);
+  } else if (m.has_claims) {
+    std::fprintf(
+        stderr,
+        "evaluate: no false convergence: every one of the %zu scans flagged converged is within %.1f m and %.0f deg\n",
+        m.claimed_converged, mo.false_convergence_translation, mo.false_convergence_rotation * kDeg);
   }
   return 0;
 }

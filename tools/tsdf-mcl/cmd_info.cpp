@@ -23,8 +23,8 @@ nlohmann::json tidy(const Eigen::Vector3f& v) { return {tidy(v.x()), tidy(v.y())
 }  // namespace
 
 int run_info(int argc, char** argv) {
-  Options o("info", "tsdf-mcl info MAP [--json]",
-            {{"json", "", "", "print one JSON object instead of readable lines"}}, argc, argv, 2);
+  Options o("info", "tsdf-mcl info MAP [--json]", {{"json", "", "", "print one JSON object instead of readable lines"}},
+            argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
@@ -72,7 +72,8 @@ int run_info(int argc, char** argv) {
               static_cast<double>(lo.x()), static_cast<double>(lo.y()), static_cast<double>(lo.z()),
               static_cast<double>(hi.x()), static_cast<double>(hi.y()), static_cast<double>(hi.z()),
               static_cast<double>(size.x()), static_cast<double>(size.y()), static_cast<double>(size.z()));
-  std::printf("coarse index: %d x %d x %d blocks (%zu cells)\n", dims.x(), dims.y(), dims.z(), map.coarse_index().size());
+  std::printf("coarse index: %d x %d x %d blocks (%zu cells)\n", dims.x(), dims.y(), dims.z(),
+              map.coarse_index().size());
   std::printf("blocks:       %zu allocated, %zu free\n", s.allocated_blocks, s.free_blocks);
   std::printf("memory:       %.2f MiB (coarse index + block pool)\n", mib);
   std::printf("known volume: %.1f m^3\n", known_m3);

@@ -1,23 +1,26 @@
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <numeric>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "dataset_source.hpp"
 #include "options.hpp"
+#include "output_folder.hpp"
+#include "parameter_file.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/imu.hpp"
+#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/localization_report.hpp"
+#include "tsdf_mcl/localizer.hpp"
 #include "tsdf_mcl/map_io.hpp"
 #include "tsdf_mcl/particle_filter.hpp"
 #include "tsdf_mcl/particle_snapshot.hpp"
@@ -29,7 +32,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-constexpr double kDeg = 57.29577951308232;
+constexpr double kImuLookAhead = 0.1;  // s: the window imu_up_at averages over around a scan
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -51,8 +54,10 @@ std::vector<OptionSpec> localize_options() {
       {"start", "S", "0", "first scan"},
       {"stride", "K", "1", "take every K-th scan"},
       {"count", "N", "0", "number of scans (0 = all from start)"},
-      {"config", "FILE", "", "YAML or JSON file of parameters by their option names (nested maps join with '.'); command-line flags win"},
-      {"init", "MODE", "global", "global (uniform over the map's free space), x,y,z,roll,pitch,yaw, or initial_pose (the initial_pose.* values)"},
+      {"config", "FILE", "",
+       "YAML or JSON file of parameters by their option names (nested maps join with '.'); command-line flags win"},
+      {"init", "MODE", "global",
+       "global (uniform over the map's free space), x,y,z,roll,pitch,yaw, or initial_pose (the initial_pose.* values)"},
       {"initial_pose.x", "M", "0", "initial pose for --init initial_pose: x"},
       {"initial_pose.y", "M", "0", "... y"},
       {"initial_pose.z", "M", "0", "... z"},
@@ -63,33 +68,50 @@ std::vector<OptionSpec> localize_options() {
       {"backend", "NAME", "auto", "sensor update on auto (Vulkan if a device works, else CPU), vulkan or cpu"},
       {"cpu_threads", "N", "0", "threads of the CPU backend (0 = all)"},
       {"seed", "N", "0", "random seed; results are reproducible for a seed and backend"},
-      {"snapshot_every", "K", "0", "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl render --particles"},
+      {"ignore_imu", "", "",
+       "do not use the dataset's IMU, imu.txt or a bag's --imu_topic (gravity for the global search, docs/filter.md)"},
+      {"snapshot_every", "K", "0",
+       "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl "
+       "render --particles"},
       // KLD-sampling and resampling.
       {"min_particles", "N", std::to_string(f.kld.min_particles), "KLD-sampling: fewest particles"},
       {"max_particles", "N", std::to_string(f.kld.max_particles), "KLD-sampling: most particles"},
       {"pf_err", "E", num(f.kld.pf_err), "KLD-sampling: bound on the KL divergence (epsilon)"},
-      {"pf_z", "Z", num(f.kld.pf_z), "KLD-sampling: upper standard-normal quantile z_(1-delta), a number of standard deviations as in nav2, not a probability (0.99 -> 84 %, 2.33 -> 99 %)"},
+      {"pf_z", "Z", num(f.kld.pf_z),
+       "KLD-sampling: upper standard-normal quantile z_(1-delta), a number of standard deviations as in nav2, not a "
+       "probability (0.99 -> 84 %, 2.33 -> 99 %)"},
       {"kld_bin_xy", "M", num(f.kld.bin_xy), "KLD-sampling: histogram bin in x and y"},
       {"kld_bin_z", "M", num(f.kld.bin_z), "KLD-sampling: histogram bin in z"},
       {"kld_bin_angle", "RAD", num(f.kld.bin_angle), "KLD-sampling: histogram bin in roll, pitch and yaw"},
       {"resample_method", "NAME", to_string(f.resample_method), "systematic (low variance), residual or multinomial"},
       {"resample_interval", "N", std::to_string(f.resample_interval), "consider resampling every N-th filter update"},
-      {"resample_ess_ratio", "R", num(f.resample_ess_ratio), "resample when the effective sample size drops below R * particles (1 = always)"},
-      {"recovery_alpha_slow", "A", num(f.recovery_alpha_slow), "recovery: long-term fit average rate (0 = no recovery)"},
-      {"recovery_alpha_fast", "A", num(f.recovery_alpha_fast), "recovery: short-term fit average rate (0 = no recovery)"},
-      {"recovery_margin", "M", num(f.recovery_margin), "recovery: the short-term fit must fall this fraction below the long-term one before random particles come"},
+      {"resample_ess_ratio", "R", num(f.resample_ess_ratio),
+       "resample when the effective sample size drops below R * particles (1 = always)"},
+      {"recovery_alpha_slow", "A", num(f.recovery_alpha_slow),
+       "recovery: long-term fit average rate (0 = no recovery)"},
+      {"recovery_alpha_fast", "A", num(f.recovery_alpha_fast),
+       "recovery: short-term fit average rate (0 = no recovery)"},
+      {"recovery_margin", "M", num(f.recovery_margin),
+       "recovery: the short-term fit must fall this fraction below the long-term one before random particles come"},
       // Sensor model and scan preprocessing.
       {"sigma_hit", "M", num(f.sensor.sigma_hit), "endpoint model: standard deviation of the distance to the surface"},
       {"z_hit", "W", num(f.sensor.z_hit), "endpoint model: weight of the hit Gaussian"},
       {"z_rand", "W", num(f.sensor.z_rand), "endpoint model: weight of the uniform part (z_rand / laser_max_range)"},
-      {"likelihood", "FORM", "product", "product (joint likelihood, log domain) or sum (the reference implementation's form)"},
+      {"likelihood", "FORM", "product",
+       "product (joint likelihood, log domain) or sum (the reference implementation's form)"},
       {"interpolation", "MODE", "nearest", "TSDF lookup: nearest or trilinear"},
-      {"weight_exponent", "X", num(f.sensor.weight_exponent), "log-weight multiplier: tempers the joint likelihood of correlated points"},
-      {"min_ess_ratio", "R", num(f.min_ess_ratio), "adaptive tempering: keep at least R * particles effective particles per update (0 = off)"},
+      {"weight_exponent", "X", num(f.sensor.weight_exponent),
+       "log-weight multiplier: tempers the joint likelihood of correlated points"},
+      {"unknown_space", "AS", f.unknown_as_free ? "free" : "miss",
+       "a scan point in the map's unknown space counts as one in free space beyond the truncation band (free) or as a "
+       "miss, p_rand (miss, the reference implementation)"},
+      {"min_ess_ratio", "R", num(f.min_ess_ratio),
+       "adaptive tempering: keep at least R * particles effective particles per update (0 = off)"},
       {"laser_min_range", "M", num(s.laser_min_range), "drop scan points closer than this"},
       {"laser_max_range", "M", num(s.laser_max_range), "drop scan points farther than this"},
       {"scan_voxel", "M", num(s.voxel_size), "thin the scan to one point per voxel of this size (0 = off)"},
-      {"max_beams", "N", std::to_string(s.max_beams), "points per scan used in the sensor update, spread over the whole scan"},
+      {"max_beams", "N", std::to_string(s.max_beams),
+       "points per scan used in the sensor update, spread over the whole scan"},
       // Motion.
       {"motion_model", "NAME", to_string(f.motion.type), "odometry (odom.txt), constant_velocity or diffusion"},
       {"alpha1", "A", num(f.motion.alpha1), "yaw noise from rotation (rad/rad)"},
@@ -100,7 +122,8 @@ std::vector<OptionSpec> localize_options() {
       {"alpha6", "A", num(f.motion.alpha6), "vertical (sensor z) translation noise from translation (m/m)"},
       {"alpha7", "A", num(f.motion.alpha7), "roll/pitch noise from rotation (rad/rad)"},
       {"alpha8", "A", num(f.motion.alpha8), "roll/pitch noise from translation (rad/m)"},
-      {"imu_rotation", "", "", "trust the odometry's relative rotation (IMU): rotation noise imu_sigma instead of alpha1/2/7/8"},
+      {"imu_rotation", "", "",
+       "trust the odometry's relative rotation (IMU): rotation noise imu_sigma instead of alpha1/2/7/8"},
       {"imu_sigma", "RAD", num(f.motion.imu_sigma), "rotation noise per update with --imu_rotation"},
       {"diffusion_xy", "M", num(f.motion.diffusion_xy), "random walk of constant_velocity/diffusion, per sqrt(s)"},
       {"diffusion_z", "M", num(f.motion.diffusion_z), "... in z"},
@@ -108,13 +131,27 @@ std::vector<OptionSpec> localize_options() {
       {"diffusion_roll_pitch", "RAD", num(f.motion.diffusion_roll_pitch), "... in roll and pitch"},
       {"update_min_d", "M", num(f.update_min_d), "filter update only after this much translation (odometry model)"},
       {"update_min_a", "RAD", num(f.update_min_a), "... or this much rotation"},
-      {"roughening_xyz", "M", num(f.roughening_xyz), "until the first convergence: extra random walk per update and axis"},
+      {"roughening_xyz", "M", num(f.roughening_xyz),
+       "until the first convergence: extra random walk per update and axis"},
       {"roughening_angle", "RAD", num(f.roughening_angle), "... and per rotation axis"},
-      {"roughening_interval", "S", num(f.roughening_interval), "until the first convergence: an update at least this often, moving or not"},
+      {"roughening_interval", "S", num(f.roughening_interval),
+       "until the first convergence: an update at least this often, moving or not"},
       // Initialization.
-      {"init_max_tilt", "RAD", num(f.global_init.max_tilt), "global init: sensor z axis within this angle of the world's (gravity known); pi = any rotation"},
-      {"init_height_band", "MIN,MAX", "", "global init: sensor height above the floor below it (ground robot), e.g. 0.3,1.5"},
+      {"init_max_tilt", "RAD", num(f.global_init.max_tilt),
+       "global init: sensor z axis within this angle of the world's (gravity known); pi = any rotation"},
+      {"init_height_band", "MIN,MAX", "",
+       "global init: sensor height above the floor below it (ground robot), e.g. 0.3,1.5"},
       {"init_min_clearance", "M", num(f.global_init.min_clearance), "global init: minimum distance from surfaces"},
+      {"init_candidates", "N", std::to_string(f.global_search.candidates),
+       "global init: hypotheses drawn from the first scan's up-direction and height candidates and scored; the best "
+       "--particles are kept"},
+      {"init_screen_points", "N", std::to_string(f.global_search.screen_points),
+       "global init: scan points each hypothesis is scored on"},
+      {"init_screen_sigma", "M", num(f.global_search.screen_sigma),
+       "global init: endpoint-model sigma of that scoring (wide: hypotheses a little off still score)"},
+      {"init_uniform_share", "R", num(f.global_search.proposal.uniform_share),
+       "global init and recovery: share of hypotheses uniform over free space and rotations (the rest follow the "
+       "scan's up and floor height)"},
       {"init_sigma_xy", "M", num(f.local_init.sigma_xy), "local init: position spread in x and y"},
       {"init_sigma_z", "M", num(f.local_init.sigma_z), "local init: spread in z"},
       {"init_sigma_yaw", "RAD", num(f.local_init.sigma_yaw), "local init: yaw spread"},
@@ -123,47 +160,38 @@ std::vector<OptionSpec> localize_options() {
       {"pose_estimate", "MODE", "mean", "mean (weighted mean of the dominant mode) or best (highest-weight particle)"},
       {"cluster_bin_xyz", "M", num(f.estimate.cluster_bin_xyz), "mode finding: grid cell size in x, y, z"},
       {"cluster_bin_yaw", "RAD", num(f.estimate.cluster_bin_yaw), "mode finding: grid cell size in yaw"},
-      {"converged_weight", "W", num(f.estimate.converged_weight), "converged: share of weight in the dominant mode at least this"},
-      {"converged_std_xyz", "M", num(f.estimate.converged_std_xyz), "converged: position standard deviation at most this"},
-      {"converged_std_angle", "RAD", num(f.estimate.converged_std_angle), "converged: rotation standard deviation at most this"},
+      {"converged_weight", "W", num(f.estimate.converged_weight),
+       "converged: share of weight in the dominant mode at least this"},
+      {"converged_std_xyz", "M", num(f.estimate.converged_std_xyz),
+       "converged: position standard deviation at most this"},
+      {"converged_std_angle", "RAD", num(f.estimate.converged_std_angle),
+       "converged: rotation standard deviation at most this"},
+      {"converged_min_inliers", "R", num(f.convergence.min_inlier_ratio),
+       "converged: at least this share of the scan's points within inlier_distance of a surface at the estimate"},
+      {"converged_competitor_weight", "W", num(f.convergence.competitor_min_weight),
+       "converged: no other hypothesis holding this much of the belief may fit the scan nearly as well (within 0.1 "
+       "inlier ratio)"},
+      {"converged_min_updates", "N", std::to_string(f.convergence.min_updates),
+       "converged: all of the above for this many consecutive filter updates at one place"},
+      {"converged_travel_after_jump", "M", num(f.convergence.travel_after_jump_m),
+       "converged: after the estimate jumped away from a converged track, the new place must hold over this much "
+       "travel first"},
+      {"inlier_distance", "M", num(f.inlier_distance),
+       "a scan point within this distance of a surface is an inlier (the absolute fit measure)"},
+      {"recovery_min_inliers", "R", num(f.recovery_min_inliers),
+       "recovery: a concentrated belief whose inlier ratio stays below this is a wrong lock and searches again (0 = "
+       "off)"},
+      {"hypothesis_evidence_points", "N", num(f.hypothesis_evidence_points),
+       "between hypotheses (modes) a scan counts as this many independent points of evidence (0 = untempered)"},
+      {"hypothesis_min_particles", "N", std::to_string(f.hypothesis_min_particles),
+       "each hypothesis with at least hypothesis_min_weight keeps this many particles through resampling"},
+      {"hypothesis_min_weight", "W", num(f.hypothesis_min_weight),
+       "... hypotheses lighter than this take their chances with the rest"},
   };
 }
 
-// Flattens a YAML/JSON document into option values: {a: {b: 1}} -> a.b = "1", lists -> "x,y,z".
-void flatten(const YAML::Node& node, const std::string& prefix, std::vector<std::pair<std::string, std::string>>& out,
-             const std::string& file) {
-  if (node.IsMap()) {
-    for (const auto& kv : node) {
-      const std::string key = kv.first.as<std::string>();
-      flatten(kv.second, prefix.empty() ? key : prefix + "." + key, out, file);
-    }
-  } else if (node.IsSequence()) {
-    std::string joined;
-    for (const auto& item : node) {
-      if (!item.IsScalar()) throw Error(file + ": " + prefix + ": lists may only hold numbers or words");
-      joined += (joined.empty() ? "" : ",") + item.as<std::string>();
-    }
-    out.emplace_back(prefix, joined);
-  } else if (node.IsScalar()) {
-    out.emplace_back(prefix, node.as<std::string>());
-  } else {
-    throw Error(file + ": " + prefix + " has no value");
-  }
-}
-
 void apply_config(Options& o, const std::string& file) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw Error("cannot open config file " + file);
-  } catch (const YAML::Exception& e) {
-    throw Error(file + ": not valid YAML/JSON: " + e.what());
-  }
-  if (!root.IsMap()) throw Error(file + ": expected a map of parameter names to values");
-  std::vector<std::pair<std::string, std::string>> values;
-  flatten(root, "", values, file);
-  for (const auto& [name, value] : values) {
+  for (const auto& [name, value] : read_parameter_file(file)) {
     if (name == "config") throw Error(file + ": a config file cannot name another (config)");
     try {
       o.set_default_from_config(name, value);
@@ -181,9 +209,9 @@ double positive(const Options& o, const std::string& name) {
 
 FilterParameters filter_parameters(const Options& o) {
   FilterParameters f;
-  f.initial_particles = o.count("particles");
-  f.kld.min_particles = o.count("min_particles");
-  f.kld.max_particles = o.count("max_particles");
+  f.initial_particles = o.count("particles", limits::kMaxParticles);
+  f.kld.min_particles = o.count("min_particles", limits::kMaxParticles);
+  f.kld.max_particles = o.count("max_particles", limits::kMaxParticles);
   f.kld.pf_err = o.number("pf_err");
   f.kld.pf_z = o.number("pf_z");
   f.kld.bin_xy = static_cast<float>(o.number("kld_bin_xy"));
@@ -209,6 +237,9 @@ FilterParameters filter_parameters(const Options& o) {
   }
   f.sensor.interpolation = interpolation == "nearest" ? Interpolation::kNearest : Interpolation::kTrilinear;
   f.sensor.weight_exponent = static_cast<float>(o.number("weight_exponent"));
+  const std::string unknown_space = o.text("unknown_space");
+  if (unknown_space != "free" && unknown_space != "miss") throw Error("--unknown_space must be free or miss");
+  f.unknown_as_free = unknown_space == "free";
   f.min_ess_ratio = o.number("min_ess_ratio");
 
   f.motion.type = parse_motion_model(o.text("motion_model"));
@@ -241,6 +272,10 @@ FilterParameters filter_parameters(const Options& o) {
     f.global_init.max_height = band[1];
   }
   f.global_init.min_clearance = o.number("init_min_clearance");
+  f.global_search.candidates = o.count("init_candidates", limits::kMaxParticles);
+  f.global_search.screen_points = o.count("init_screen_points", limits::kMaxBeams);
+  f.global_search.screen_sigma = static_cast<float>(o.number("init_screen_sigma"));
+  f.global_search.proposal.uniform_share = o.number("init_uniform_share");
   f.local_init.sigma_xy = o.number("init_sigma_xy");
   f.local_init.sigma_z = o.number("init_sigma_z");
   f.local_init.sigma_yaw = o.number("init_sigma_yaw");
@@ -254,6 +289,15 @@ FilterParameters filter_parameters(const Options& o) {
   f.estimate.converged_weight = o.number("converged_weight");
   f.estimate.converged_std_xyz = o.number("converged_std_xyz");
   f.estimate.converged_std_angle = o.number("converged_std_angle");
+  f.convergence.min_inlier_ratio = o.number("converged_min_inliers");
+  f.convergence.min_updates = o.count("converged_min_updates");
+  f.convergence.travel_after_jump_m = o.number("converged_travel_after_jump");
+  f.convergence.competitor_min_weight = o.number("converged_competitor_weight");
+  f.inlier_distance = static_cast<float>(o.number("inlier_distance"));
+  f.recovery_min_inliers = o.number("recovery_min_inliers");
+  f.hypothesis_evidence_points = o.number("hypothesis_evidence_points");
+  f.hypothesis_min_particles = o.count("hypothesis_min_particles", limits::kMaxParticles);
+  f.hypothesis_min_weight = o.number("hypothesis_min_weight");
   f.seed = o.count("seed");
   f.validate();
   return f;
@@ -264,7 +308,7 @@ ScanPreprocessing scan_parameters(const Options& o) {
   s.laser_min_range = static_cast<float>(o.number("laser_min_range"));
   s.laser_max_range = static_cast<float>(o.number("laser_max_range"));
   s.voxel_size = static_cast<float>(o.number("scan_voxel"));
-  s.max_beams = o.count("max_beams");
+  s.max_beams = o.count("max_beams", limits::kMaxBeams);
   s.seed = o.count("seed");
   s.validate();
   return s;
@@ -276,37 +320,14 @@ std::optional<Pose> initial_pose(const Options& o) {
   if (init == "global") return std::nullopt;
   std::vector<double> v;
   if (init == "initial_pose") {
-    for (const char* k : {"x", "y", "z", "roll", "pitch", "yaw"}) v.push_back(o.number(std::string("initial_pose.") + k));
+    for (const char* k : {"x", "y", "z", "roll", "pitch", "yaw"})
+      v.push_back(o.number(std::string("initial_pose.") + k));
   } else {
     v = o.numbers("init");
     if (v.size() != 6) throw Error("--init expects global, initial_pose or x,y,z,roll,pitch,yaw (6 numbers)");
   }
   return pose_from_xyz_rpy(v[0], v[1], v[2], v[3], v[4], v[5]);
 }
-
-nlohmann::json pose_json(const Pose& p) {
-  const Eigen::Quaterniond q(p.linear());
-  const Eigen::Vector3d rpy = rpy_of(p.linear());
-  const Eigen::Vector3d t = p.translation();
-  return {{"x", t.x()}, {"y", t.y()}, {"z", t.z()}, {"qx", q.x()}, {"qy", q.y()}, {"qz", q.z()}, {"qw", q.w()},
-          {"roll_deg", rpy.x() * kDeg}, {"pitch_deg", rpy.y() * kDeg}, {"yaw_deg", rpy.z() * kDeg}};
-}
-
-void write_snapshot(const ParticleFilter& filter, const fs::path& file) {
-  const ParticleArrays p = filter.particles();
-  const std::vector<double> w = filter.particle_weights();
-  ParticleSnapshot snapshot;
-  snapshot.particles.resize(w.size());
-  for (std::size_t i = 0; i < w.size(); ++i) {
-    snapshot.particles[i].position = p.position(i);
-    snapshot.particles[i].orientation = p.rotation(i);
-    snapshot.particles[i].weight = static_cast<float>(w[i]);
-  }
-  write_particle_snapshot(file, snapshot);
-}
-
-// NaN (no GPU timestamps) is not valid JSON.
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 // Every option's effective value, numbers as numbers.
 nlohmann::json parameters_json(const Options& o) {
@@ -323,8 +344,10 @@ nlohmann::json parameters_json(const Options& o) {
     }
     char* end = nullptr;
     const double d = std::strtod(v->c_str(), &end);
-    if (!v->empty() && *end == '\0' && std::isfinite(d)) j[s.name] = d;
-    else j[s.name] = *v;
+    if (!v->empty() && *end == '\0' && std::isfinite(d))
+      j[s.name] = d;
+    else
+      j[s.name] = *v;
   }
   return j;
 }
@@ -333,11 +356,13 @@ nlohmann::json parameters_json(const Options& o) {
 
 int run_localize(int argc, char** argv) {
   Options o("localize",
-            "tsdf-mcl localize --map MAP --dataset DIR [--start S --stride K --count N] [--particles N]\n"
-            "                       [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--backend auto|vulkan|cpu] [--seed N]\n"
+            "tsdf-mcl localize --map MAP --dataset DIR | --bag FILE --points TOPIC [--start S --stride K --count N] "
+            "[--particles N]\n"
+            "                       [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--backend auto|vulkan|cpu] "
+            "[--seed N]\n"
             "                       [--config FILE] [filter parameters] -o OUT\n"
             "Writes OUT/trajectory.tum (one line per scan, world_T_sensor) and OUT/report.json. Angles in radians.",
-            localize_options(), argc, argv, 2);
+            with_bag_options(localize_options()), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
@@ -345,13 +370,18 @@ int run_localize(int argc, char** argv) {
   o.expect_positional(0, "no positional arguments");
   if (const auto config = o.maybe("config")) apply_config(o, *config);
 
-  const FilterParameters params = filter_parameters(o);
-  const ScanPreprocessing scan_params = scan_parameters(o);
-  const std::optional<Pose> init_pose = initial_pose(o);
+  LocalizerOptions lo;
+  lo.filter = filter_parameters(o);
+  lo.preprocessing = scan_parameters(o);
+  lo.initial_pose = initial_pose(o);
+  lo.use_imu = !o.flag("ignore_imu");
+  lo.evaluator.backend = parse_backend(o.text("backend"));
+  lo.evaluator.cpu_threads = static_cast<int>(o.count("cpu_threads", limits::kMaxThreads));
   if (!o.maybe("output")) throw Error("missing -o OUT (the output folder)");
-  const fs::path out_dir = o.text("output");
+  StagedOutputFolder output(o.text("output"), {"trajectory.tum", "report.json", "snapshots"});
+  const fs::path out_dir = output.staging();
   const std::string map_file = o.text("map");
-  const Dataset dataset = Dataset::open(o.text("dataset"));
+  const Dataset dataset = open_dataset(o);
   ScanSelection selection;
   selection.start = o.count("start");
   selection.stride = o.count("stride");
@@ -361,192 +391,142 @@ int run_localize(int argc, char** argv) {
     throw Error("--start " + std::to_string(selection.start) + " selects no scan (the dataset has " +
                 std::to_string(dataset.size()) + ")");
   }
-  if (params.motion.type == MotionModelType::kOdometry && !dataset.has_odometry()) {
-    throw Error("dataset " + dataset.dir().string() +
-                " has no odom.txt, which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
+  if (lo.filter.motion.type == MotionModelType::kOdometry && !dataset.has_odometry()) {
+    throw Error(dataset.missing_odometry() +
+                ", which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
   }
   // Empty scan files are caught before any work starts; scans whose points are all NaN or out of range can
   // only be found while reading them.
-  for (std::size_t idx : scans) {
-    std::error_code size_error;
-    if (fs::file_size(dataset.scan_path(idx), size_error) == 0 && !size_error) {
-      throw Error(dataset.scan_path(idx).string() + ": empty scan file");
-    }
-  }
+  dataset.check_scans_not_empty(scans);
+  // An IMU's gravity, where the dataset has one, stands for the up direction the scan would suggest. Samples are
+  // fed as a live IMU would deliver them: up to just past each scan's time.
+  const std::vector<ImuSample> imu = lo.use_imu ? dataset.imu() : std::vector<ImuSample>{};
+  std::size_t imu_next = 0;
   const TsdfMap map = load_map(map_file);
-  EvaluatorOptions eo;
-  eo.backend = parse_backend(o.text("backend"));
-  eo.cpu_threads = static_cast<int>(o.count("cpu_threads"));
-  std::string note;
-  const std::unique_ptr<SensorEvaluator> evaluator = make_evaluator(map, eo, &note);
-  std::fprintf(stderr, "localize: %s\n", note.c_str());
+  Localizer localizer(map, lo);
+  if (!dataset.summary().empty()) std::fprintf(stderr, "localize: %s\n", dataset.summary().c_str());
+  std::fprintf(stderr, "localize: %s\n", localizer.backend_note().c_str());
 
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec) throw Error("cannot create output folder " + out_dir.string() + ": " + ec.message());
-
-  ParticleFilter filter(map, *evaluator, params, scan_params.max_beams);
-  const auto t_init = Clock::now();
-  if (init_pose) {
-    filter.initialize_local(*init_pose);
-    std::fprintf(stderr, "localize: %zu particles around the initial pose\n", params.initial_particles);
-  } else {
-    filter.initialize_global();
-    std::fprintf(stderr, "localize: %zu particles uniform over %zu free-space voxels\n", params.initial_particles,
-                 filter.free_space_voxels());
-  }
-  const double init_ms = ms_since(t_init);
   const std::size_t snapshot_every = o.count("snapshot_every");
   const fs::path snapshot_dir = out_dir / "snapshots";
   if (snapshot_every > 0) {
     fs::create_directories(snapshot_dir, ec);
     if (ec) throw Error("cannot create " + snapshot_dir.string() + ": " + ec.message());
-    write_snapshot(filter, snapshot_dir / "init.bin");
+    if (lo.initial_pose) write_particle_snapshot(snapshot_dir / "init.bin", localizer.snapshot());
+  }
+  bool reported_init = false;
+  const auto report_initialization = [&] {
+    const InitializationRecord& init = *localizer.initialization();
+    if (!init.global) {
+      std::fprintf(stderr, "localize: %zu particles around the initial pose\n", init.particles);
+      return;
+    }
+    std::string heights;
+    for (const GravityCandidate& c : init.candidates) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%s%.2f", heights.empty() ? "" : ",",
+                    c.has_height ? static_cast<double>(c.height) : NAN);
+      heights += buf;
+    }
+    std::fprintf(
+        stderr,
+        "localize: global search: %zu up-direction candidates from the first scan%s (sensor heights %s m); best "
+        "%zu of %zu hypotheses over %zu free-space voxels kept\n",
+        init.candidates.size(), init.gravity_source == "imu" ? " and the IMU" : "",
+        heights.empty() ? "-" : heights.c_str(), init.particles, init.hypotheses_scored, init.free_space_voxels);
+    if (snapshot_every > 0) write_particle_snapshot(snapshot_dir / "init.bin", localizer.snapshot());
+  };
+  if (lo.initial_pose) {
+    report_initialization();
+    reported_init = true;
   }
 
-  ScanPreprocessor preprocessor(scan_params);
   std::vector<StampedPose> trajectory;
-  nlohmann::json per_scan = nlohmann::json::array();
-  std::size_t updates = 0, dropped_total = 0, min_count = filter.particle_count(), max_count = filter.particle_count();
-  std::vector<double> update_ms;
-  constexpr std::size_t kNever = static_cast<std::size_t>(-1);
-  std::size_t converged_since = kNever;  // position in `scans` from which the filter stayed converged
+  ReportWriter report_writer(out_dir / "scans.jsonl");
+  std::size_t dropped_total = 0;
   const auto t_run = Clock::now();
   for (std::size_t k = 0; k < scans.size(); ++k) {
     const std::size_t idx = scans[k];
-    auto t0 = Clock::now();
+    const auto t0 = Clock::now();
     std::size_t dropped = 0;
     const PointCloud cloud = dataset.load_scan(idx, &dropped);
     const double load_ms = ms_since(t0);
     dropped_total += dropped;
-    if (cloud.empty()) {
-      throw Error(dataset.scan_path(idx).string() + ": no finite points" +
-                  (dropped > 0 ? " (" + std::to_string(dropped) + " NaN/Inf points dropped)" : std::string()));
+    const std::optional<Pose> odometry =
+        dataset.has_odometry() ? std::optional<Pose>(dataset.odometry(idx)) : std::nullopt;
+    while (imu_next < imu.size() && imu[imu_next].time <= dataset.time(idx) + kImuLookAhead)
+      localizer.add_imu(imu[imu_next++]);
+    const ScanRecord* record = nullptr;
+    try {
+      record = &localizer.process(dataset.time(idx), cloud.points, odometry, idx);
+    } catch (const Error& e) {
+      throw Error(dataset.scan_path(idx).string() + ": " + e.what());
     }
-    t0 = Clock::now();
-    PreprocessingStats stats;
-    const std::vector<Eigen::Vector3f>& points = preprocessor.process(cloud.points, idx, &stats);
-    const double preprocess_ms = ms_since(t0);
-    if (points.empty()) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf), ": none of %zu points lies within laser_min_range %.2f m .. laser_max_range %.2f m",
-                    cloud.size(), static_cast<double>(scan_params.laser_min_range),
-                    static_cast<double>(scan_params.laser_max_range));
-      throw Error(dataset.scan_path(idx).string() + buf);
+    if (!reported_init) {
+      report_initialization();
+      reported_init = true;
     }
-    const std::optional<Pose> odometry = dataset.has_odometry() ? std::optional<Pose>(dataset.odometry(idx)) : std::nullopt;
-    const std::size_t before = filter.particle_count();
-    const FilterStep step = filter.update(dataset.time(idx), points, odometry);
+    const FilterStep& step = record->step;
     trajectory.push_back({dataset.time(idx), step.estimate.pose});
-    if (step.updated) {
-      ++updates;
-      update_ms.push_back(step.timings.total_ms);
-      min_count = std::min(min_count, step.next_particles);
-      max_count = std::max(max_count, step.next_particles);
-      if (!step.estimate.converged) converged_since = kNever;
-      else if (converged_since == kNever) converged_since = k;
-    }
 
-    nlohmann::json j;
+    nlohmann::json j = scan_json(*record);
     j["scan"] = idx;
-    j["time"] = dataset.time(idx);
-    j["updated"] = step.updated;
-    j["points"] = {{"raw", cloud.size() + dropped}, {"dropped_non_finite", dropped}, {"in_range", stats.in_range},
-                   {"thinned", stats.thinned}, {"used", stats.output}};
-    j["timings_ms"] = {{"load", load_ms}, {"preprocess", preprocess_ms}};
-    if (step.updated) {
-      const StepTimings& t = step.timings;
-      j["particles"] = step.particles;
-      j["particles_after"] = step.next_particles;
-      j["resampled"] = step.resampled;
-      j["kld_bins"] = step.kld_bins;
-      j["injected"] = step.injected;
-      j["ess"] = step.ess;
-      j["tempering"] = step.tempering;
-      j["fit"] = step.fit;
-      j["w_slow"] = step.w_slow;
-      j["w_fast"] = step.w_fast;
-      j["timings_ms"].update({{"motion", t.motion_ms},
-                              {"upload", t.upload_ms},
-                              {"weight", t.weight_ms},
-                              {"weight_gpu", number_or_null(t.weight_gpu_ms)},
-                              {"reduce_gpu", number_or_null(t.reduce_gpu_ms)},
-                              {"reduce_host", t.reduce_ms},
-                              {"resample", t.resample_ms},
-                              {"update_total", t.total_ms}});
-    } else {
-      j["particles"] = before;
-    }
-    j["estimate"] = pose_json(step.estimate.pose);
-    j["converged"] = step.estimate.converged;
-    j["mode_weight"] = step.estimate.mode_weight;
-    j["modes"] = step.estimate.modes;
-    j["std_position_m"] = step.estimate.std_position;
-    j["std_rotation_deg"] = step.estimate.std_rotation * kDeg;
+    j["points"]["raw"] = cloud.size() + dropped;
+    j["points"]["dropped_non_finite"] = dropped;
+    j["timings_ms"]["load"] = load_ms;
     if (snapshot_every > 0 && k % snapshot_every == 0) {
       char name[32];
       std::snprintf(name, sizeof(name), "scan_%06zu.bin", idx);
-      write_snapshot(filter, snapshot_dir / name);
-      j["snapshot"] = (snapshot_dir / name).string();
+      write_particle_snapshot(snapshot_dir / name, localizer.snapshot());
+      j["snapshot"] = (output.folder() / "snapshots" / name).string();
     }
-    per_scan.push_back(std::move(j));
+    report_writer.add(j);
 
     if (step.updated) {
       std::fprintf(stderr, "[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s%s\n", k + 1,
-                   scans.size(), idx, points.size(), step.particles, step.next_particles, step.timings.total_ms,
+                   scans.size(), idx, record->points.output, step.particles, step.next_particles, step.timings.total_ms,
                    step.estimate.converged ? "converged" : "not converged",
                    step.injected > 0 ? (", " + std::to_string(step.injected) + " random particles").c_str() : "");
     } else {
-      std::fprintf(stderr, "[%zu/%zu] scan %zu: held by the motion gate (update_min_d / update_min_a), %zu particles, %s\n",
-                   k + 1, scans.size(), idx, before, step.estimate.converged ? "converged" : "not converged");
+      std::fprintf(
+          stderr, "[%zu/%zu] scan %zu: held by the motion gate (update_min_d / update_min_a), %zu particles, %s\n",
+          k + 1, scans.size(), idx, record->particles_before, step.estimate.converged ? "converged" : "not converged");
     }
     if (dropped > 0) std::fprintf(stderr, "  scan %zu: dropped %zu NaN/Inf points\n", idx, dropped);
   }
   const double run_s = ms_since(t_run) / 1000.0;
 
   write_tum(out_dir / "trajectory.tum", trajectory);
-  std::vector<double> sorted = update_ms;
-  std::sort(sorted.begin(), sorted.end());
+  const RunSummary summary = localizer.summary();
   nlohmann::json report;
   report["command"] = "localize";
-  report["backend"] = evaluator->backend();
-  report["device"] = evaluator->device_name();
-  report["backend_note"] = note;
-  report["map"] = {{"file", map_file},
-                   {"voxel_size", map.voxel_size()},
-                   {"truncation", map.truncation()},
-                   {"free_space_voxels", init_pose ? nlohmann::json(nullptr) : nlohmann::json(filter.free_space_voxels())}};
+  report["backend"] = localizer.evaluator().backend();
+  report["device"] = localizer.evaluator().device_name();
+  report["backend_note"] = localizer.backend_note();
+  report["map"] = {{"file", map_file}, {"voxel_size", map.voxel_size()}, {"truncation", map.truncation()}};
   report["dataset"] = {{"dir", dataset.dir().string()}, {"scans", dataset.size()}, {"selected", scans.size()}};
   report["parameters"] = parameters_json(o);
-  report["initialization"] = {{"mode", init_pose ? "local" : "global"}, {"particles", params.initial_particles}, {"ms", init_ms}};
-  report["summary"] = {
-      {"scans", scans.size()},
-      {"filter_updates", updates},
-      {"dropped_non_finite_points", dropped_total},
-      {"final_converged", filter.estimate().converged},
-      {"converged_since_scan", converged_since != kNever ? nlohmann::json(scans[converged_since]) : nlohmann::json(nullptr)},
-      {"converged_since_s", converged_since != kNever
-                                ? nlohmann::json(dataset.time(scans[converged_since]) - dataset.time(scans.front()))
-                                : nlohmann::json(nullptr)},
-      {"particles", {{"initial", params.initial_particles}, {"min", min_count}, {"max", max_count}, {"final", filter.particle_count()}}},
-      {"update_ms", {{"mean", update_ms.empty() ? 0.0 : std::accumulate(update_ms.begin(), update_ms.end(), 0.0) / static_cast<double>(update_ms.size())},
-                     {"median", sorted.empty() ? 0.0 : sorted[sorted.size() / 2]},
-                     {"max", sorted.empty() ? 0.0 : sorted.back()}}},
-      {"wall_s", run_s},
-  };
-  report["scans"] = std::move(per_scan);
-  const fs::path report_file = out_dir / "report.json";
-  std::ofstream out(report_file);
-  out << report.dump(1) << "\n";
-  if (!out) throw Error("cannot write " + report_file.string());
-  const nlohmann::json& summary = report["summary"];
+  report["initialization"] = initialization_json(*localizer.initialization());
+  nlohmann::json summary_entry = summary_json(summary);
+  summary_entry["particles"]["initial"] = lo.filter.initial_particles;
+  summary_entry["dropped_non_finite_points"] = dropped_total;
+  summary_entry["converged_since_scan"] =
+      summary.converged_since_index ? nlohmann::json(scans[*summary.converged_since_index]) : nlohmann::json(nullptr);
+  summary_entry["converged_since_s"] = summary.converged_since_time
+                                           ? nlohmann::json(*summary.converged_since_time - dataset.time(scans.front()))
+                                           : nlohmann::json(nullptr);
+  summary_entry["wall_s"] = run_s;
+  report["summary"] = summary_entry;
+  report_writer.write(report, out_dir / "report.json");
+  output.commit();
   std::fprintf(stderr,
                "localize: %zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu "
                "initial, %zu..%zu, %zu final; %s; wrote %s and %s\n",
-               scans.size(), updates, run_s, summary["update_ms"]["mean"].get<double>(),
-               summary["update_ms"]["median"].get<double>(), params.initial_particles, min_count, max_count,
-               filter.particle_count(), filter.estimate().converged ? "converged" : "NOT converged",
-               (out_dir / "trajectory.tum").c_str(), report_file.c_str());
+               scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
+               lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
+               summary.converged ? "converged" : "NOT converged", (output.folder() / "trajectory.tum").c_str(),
+               (output.folder() / "report.json").c_str());
   return 0;
 }
 

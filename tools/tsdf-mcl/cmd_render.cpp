@@ -11,12 +11,14 @@
 
 #include "commands.hpp"
 #include "options.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/image.hpp"
 #include "tsdf_mcl/map_io.hpp"
 #include "tsdf_mcl/map_view.hpp"
 #include "tsdf_mcl/particle_snapshot.hpp"
+#include "tsdf_mcl/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::cli {
 namespace fs = std::filesystem;
@@ -25,17 +27,18 @@ namespace {
 std::vector<OptionSpec> render_options() {
   return {
       {"map", "MAP", "", "map file (.tsdf) to draw"},
-      {"z-min", "M", "", "projection: lowest voxel height to include (m) [default: the map's bottom]"},
-      {"z-max", "M", "", "projection: highest voxel height to include (m) [default: the map's top]"},
+      {"z_min", "M", "", "projection: lowest voxel height to include (m) [default: the map's bottom]"},
+      {"z_max", "M", "", "projection: highest voxel height to include (m) [default: the map's top]"},
       {"slice", "Z", "", "draw the horizontal slice at height Z (m) instead of a projection"},
-      {"ground-truth", "DIR", "", "dataset folder whose poses.txt is drawn as the ground truth trajectory"},
+      {"ground_truth", "DIR", "", "dataset folder whose poses.txt is drawn as the ground truth trajectory"},
       {"estimate", "FILE[,FILE..]", "", "estimated trajectories (TUM: t x y z qx qy qz qw), comma-separated"},
       {"particles", "FILE[,FILE..]", "", "particle snapshots written by localize, comma-separated: one panel each"},
       {"captions", "TEXT[,TEXT..]", "", "one caption per particle snapshot [default: (a) FILE, (b) FILE, ...]"},
       {"headings", "", "", "draw each particle's heading as a short tick"},
-      {"pixel", "M", "", "metres per pixel [default: fit --panel-size]"},
-      {"panel-size", "PX", "0", "larger side of each panel in pixels when --pixel is not given; 0 = 1000 for one "
-                                "panel, 700 each for several"},
+      {"pixel", "M", "", "metres per pixel [default: fit --panel_size]"},
+      {"panel_size", "PX", "0",
+       "larger side of each panel in pixels when --pixel is not given; 0 = 1000 for one "
+       "panel, 700 each for several"},
       {"title", "TEXT", "", "title above the picture"},
       {"output", "FILE.png", "", "image to write (same as -o FILE.png)"},
   };
@@ -59,36 +62,14 @@ std::string final_error_note(const std::vector<StampedPose>& estimate, const Dat
   std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(periods.size() / 2), periods.end());
   const double tolerance = 0.5 * periods[periods.size() / 2];
   const StampedPose& last = estimate.back();
-  const auto nearest = std::min_element(times.begin(), times.end(), [&](double a, double b) {
-    return std::abs(a - last.time) < std::abs(b - last.time);
-  });
-  if (std::abs(*nearest - last.time) > tolerance) return "";
-  const Pose& gt = truth.pose(static_cast<std::size_t>(nearest - times.begin()));
+  const std::optional<std::size_t> nearest = nearest_stamp(times, last.time, tolerance);
+  if (!nearest) return "";
+  const Pose& gt = truth.pose(*nearest);
   const double position = (last.pose.translation() - gt.translation()).norm();
   const double angle = rotation_angle_between(last.pose.linear(), gt.linear()) * 180.0 / EIGEN_PI;
   char note[96];
   std::snprintf(note, sizeof(note), " (final error %.2f m, %.1f deg)", position, angle);
   return note;
-}
-
-// The filter's estimate where the particles agree on one place: their weighted mean position with the weighted
-// circular mean of their headings; nullopt while they are spread out (a mean between modes is nowhere).
-std::optional<Pose> concentrated_mean(const ParticleSnapshot& snapshot, double max_spread) {
-  double total = 0.0;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Vector2d heading = Eigen::Vector2d::Zero();
-  for (const auto& p : snapshot.particles) {
-    total += p.weight;
-    mean += p.weight * p.position.cast<double>();
-    const Eigen::Vector3f forward = p.orientation * Eigen::Vector3f::UnitX();
-    heading += p.weight * Eigen::Vector2d(forward.x(), forward.y());
-  }
-  if (!(total > 0.0)) return std::nullopt;
-  mean /= total;
-  double spread = 0.0;
-  for (const auto& p : snapshot.particles) spread += p.weight * (p.position.cast<double>() - mean).head<2>().squaredNorm();
-  if (std::sqrt(spread / total) > max_spread || heading.norm() < 1e-9) return std::nullopt;
-  return pose_from_xyz_rpy(mean.x(), mean.y(), mean.z(), 0.0, 0.0, std::atan2(heading.y(), heading.x()));
 }
 
 }  // namespace
@@ -101,14 +82,15 @@ int run_render(int argc, char** argv) {
   }
   std::vector<char*> arg_ptrs;
   for (auto& a : args) arg_ptrs.push_back(a.data());
-  const Options o("render",
-                  "tsdf-mcl render --map MAP [--z-min M --z-max M | --slice Z] [--ground-truth DIR]\n"
-                  "                       [--estimate FILE.tum,..] [--particles FILE,.. [--captions A,..]] [--pixel M]\n"
-                  "                       [--title TEXT] -o OUT.png\n"
-                  "Draws the map from above like a floor plan (obstacles coloured by height, free space white, unobserved\n"
-                  "space grey) with the trajectories and particles over it; several particle snapshots become panels side\n"
-                  "by side.",
-                  render_options(), argc, arg_ptrs.data(), 2);
+  const Options o(
+      "render",
+      "tsdf-mcl render --map MAP [--z_min M --z_max M | --slice Z] [--ground_truth DIR]\n"
+      "                       [--estimate FILE.tum,..] [--particles FILE,.. [--captions A,..]] [--pixel M]\n"
+      "                       [--title TEXT] -o OUT.png\n"
+      "Draws the map from above like a floor plan (obstacles coloured by height, free space white, unobserved\n"
+      "space grey) with the trajectories and particles over it; several particle snapshots become panels side\n"
+      "by side.",
+      render_options(), argc, arg_ptrs.data(), 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
@@ -119,18 +101,15 @@ int run_render(int argc, char** argv) {
   if (!o.has("output")) throw Error("missing -o OUT.png (the image to write)");
   const fs::path output = o.text("output");
   std::string extension = output.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   if (extension != ".png") throw Error("the output must be a .png file, got " + output.string());
-  std::error_code ec;
-  if (output.has_parent_path() && !fs::is_directory(output.parent_path(), ec)) {
-    throw Error("cannot write " + output.string() + ": folder " + output.parent_path().string() +
-                " does not exist");
-  }
+  check_output_file(output, "image");
   MapRasterOptions raster_options;
-  if (o.has("z-min")) raster_options.z_min = static_cast<float>(o.number("z-min"));
-  if (o.has("z-max")) raster_options.z_max = static_cast<float>(o.number("z-max"));
+  if (o.has("z_min")) raster_options.z_min = static_cast<float>(o.number("z_min"));
+  if (o.has("z_max")) raster_options.z_max = static_cast<float>(o.number("z_max"));
   if (o.has("slice")) {
-    if (o.has("z-min") || o.has("z-max")) throw Error("--slice draws one height; it excludes --z-min/--z-max");
+    if (o.has("z_min") || o.has("z_max")) throw Error("--slice draws one height; it excludes --z_min/--z_max");
     raster_options.slice_z = static_cast<float>(o.number("slice"));
   }
   MapViewOptions view_options;
@@ -144,13 +123,14 @@ int run_render(int argc, char** argv) {
     if (particle_files.empty()) throw Error("--captions needs --particles (one caption per snapshot)");
     captions = o.list("captions");
     if (captions.size() != particle_files.size()) {
-      throw Error("" + std::to_string(captions.size()) + " captions for " +
-                  std::to_string(particle_files.size()) + " particle snapshots");
+      throw Error("" + std::to_string(captions.size()) + " captions for " + std::to_string(particle_files.size()) +
+                  " particle snapshots");
     }
   }
-  const std::size_t panel_size = o.count("panel-size");
-  view_options.panel_pixels = panel_size != 0 ? static_cast<int>(std::min<std::size_t>(panel_size, 32768))
-                                              : particle_files.size() > 1 ? 700 : 1000;
+  const std::size_t panel_size = o.count("panel_size");
+  view_options.panel_pixels = panel_size != 0             ? static_cast<int>(std::min<std::size_t>(panel_size, 32768))
+                              : particle_files.size() > 1 ? 700
+                                                          : 1000;
   view_options.particle_headings = o.flag("headings");
   if (o.has("title")) view_options.title = o.text("title");
 
@@ -158,9 +138,9 @@ int run_render(int argc, char** argv) {
 
   std::vector<TrajectoryOverlay> trajectories;
   std::optional<Dataset> truth;
-  if (o.has("ground-truth")) {
-    truth = Dataset::open(o.text("ground-truth"));
-    if (!truth->has_poses()) throw Error("--ground-truth " + o.text("ground-truth") + " has no poses.txt");
+  if (o.has("ground_truth")) {
+    truth = Dataset::open(o.text("ground_truth"));
+    if (!truth->has_poses()) throw Error("--ground_truth " + o.text("ground_truth") + " has no poses.txt");
     // Wide and translucent, under the estimates: where an estimate leaves the band, it is wrong there.
     trajectories.push_back({"ground truth", truth->poses(), colors::kBlack, 7.0f, 0.3f, false});
   }
@@ -188,9 +168,7 @@ int run_render(int argc, char** argv) {
       panel.caption = "(" + std::string(1, static_cast<char>('a' + i % 26)) + ") " + panel.caption;
     }
     panel.caption += "  -  " + std::to_string(panel.particles.particles.size()) + " particles";
-    if (const auto mean = concentrated_mean(panel.particles, 0.5)) {
-      panel.markers.push_back({*mean, palette_color(0), "particle mean"});
-    }
+    panel.markers = hypothesis_markers(panel.particles);
     panels.push_back(std::move(panel));
   }
 

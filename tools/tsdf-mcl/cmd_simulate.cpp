@@ -1,46 +1,105 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <memory>
+#include <cmath>
 #include <cstdio>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "options.hpp"
+#include "tsdf_mcl/atomic_file.hpp"
+#include "tsdf_mcl/bag_writer.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/simulator.hpp"
 
 namespace tsdf_mcl::cli {
 
+namespace {
+
+sim::Platform platform_of(const std::string& name) {
+  if (name == "ground") return sim::Platform::ground;
+  if (name == "handheld") return sim::Platform::handheld;
+  if (name == "drone") return sim::Platform::drone;
+  throw Error("--platform must be ground, handheld or drone, not '" + name + "'");
+}
+
+// "X,Y,YAW" (m, m, deg) -> x, y, yaw in rad.
+Eigen::Vector3d start_of(const Options& o) {
+  const std::vector<double> v = o.numbers("start");
+  if (v.size() != 3) throw Error("--start expects X,Y,YAW (m, m, deg), got '" + o.text("start") + "'");
+  return {v[0], v[1], v[2] * M_PI / 180.0};
+}
+
+// "X,Y;X,Y;..." -> points.
+std::vector<Eigen::Vector2d> waypoints_of(const std::string& text) {
+  std::vector<Eigen::Vector2d> points;
+  std::stringstream items(text);
+  for (std::string item; std::getline(items, item, ';');) {
+    double x = 0.0, y = 0.0;
+    char comma = 0;
+    std::istringstream in(item);
+    if (!(in >> x >> comma >> y) || comma != ',' || !(in >> std::ws).eof() || !std::isfinite(x) || !std::isfinite(y)) {
+      throw Error("--waypoints expects X,Y;X,Y;... (m), got '" + item + "'");
+    }
+    points.emplace_back(x, y);
+  }
+  if (points.empty()) throw Error("--waypoints expects X,Y;X,Y;... (m), got nothing");
+  return points;
+}
+
+}  // namespace
+
 int run_simulate(int argc, char** argv) {
   Options o("simulate",
-            "tsdf-mcl simulate --scene office|MESH --lidar vlp16|os0-64|BEAMTABLE [--route mapping|test] [--seed N]\n"
-            "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor-height M]\n"
-            "                         [--range-noise M] [--dropout P] [--odom-noise F] [--obstacles N]\n"
-            "                         [--motion-distortion] -o DIR",
+            "tsdf-mcl simulate --scene office|symmetric|warehouse|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+            "                         [--route mapping|test] [--seed N] [--start X,Y,YAW] [--waypoints X,Y;X,Y;...]\n"
+            "                         [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
+            "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
+            "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
+            "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
             {
-                {"scene", "office|MESH", "office", "the built-in office, or a mesh file (STL/PLY/OBJ, metres, z up)"},
-                {"scene-seed", "N", "1", "furniture layout of the built-in office"},
-                {"ground-plane", "Z|none", "none",
+                {"scene", "office|symmetric|warehouse|MESH", "office",
+                 "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
+                 "a 40 x 25 m warehouse with pallet racks), or a mesh file (STL/PLY/OBJ, metres, z up)"},
+                {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets)"},
+                {"ground_plane", "Z|none", "none",
                  "add a ground slab with its top at height Z under the mesh, for meshes without a floor (avz: 0)"},
                 {"lidar", "vlp16|os0-64|FILE", "vlp16", "LiDAR model, or a beam table file (see docs/simulator.md)"},
                 {"rate", "HZ", "", "sweeps per second [default: vlp16 20 (5-20), os0-64 10 (10 or 20), table's rate]"},
                 {"route", "mapping|test", "test",
                  "mapping: covers the whole floor (to build a map); test: a route over a ramp, chosen by the seed"},
                 {"seed", "N", "1", "route, obstacles and noise; each seed gives another test route"},
+                {"start", "X,Y,YAW", "",
+                 "test route: start at X,Y (m) facing YAW (deg, 0 = +x) instead of where the seed says"},
+                {"waypoints", "X,Y;X,Y;...", "",
+                 "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
+                {"platform", "ground|handheld|drone", "ground",
+                 "what carries the sensor: a ground robot, a walking person (sensor 1.5 m high, gait sway), a drone "
+                 "(1.0-2.5 m high, tilting with its acceleration, yaw off the path at times)"},
+                {"sensor_tilt", "DEG", "0",
+                 "mounting tilt of the LiDAR about its y axis; positive: x axis towards the floor"},
                 {"duration", "S", "", "stop after S simulated seconds [default: test 60 m, mapping the whole route]"},
                 {"length", "M", "", "stop after M metres driven [default: test 60, mapping the whole route]"},
-                {"speed", "MPS", "0.8", "cruise speed; the robot slows in curves"},
-                {"sensor-height", "M", "0.5", "sensor origin above the robot base (the floor)"},
-                {"range-noise", "M", "0.015", "Gaussian range noise (sigma)"},
+                {"speed", "MPS", "", "cruise speed; slower in curves [default: ground 0.8, handheld 1.2, drone 1.5]"},
+                {"sensor_height", "M", "",
+                 "sensor origin above the floor [default: ground 0.5, handheld 1.5; the drone's height varies]"},
+                {"range_noise", "M", "0.015", "Gaussian range noise (sigma)"},
                 {"dropout", "P", "0", "probability that a return is lost"},
-                {"odom-noise", "F", "0.1", "odometry noise relative to the motion per sweep (0: exact odometry)"},
-                {"scan-spacing", "M", "",
+                {"odom_noise", "F", "0.1", "odometry noise relative to the motion per sweep (0: exact odometry)"},
+                {"scan_spacing", "M", "",
                  "keep a sweep only after the sensor moved M m or turned 30 deg (0: every sweep) "
                  "[default: mapping 0.5, test 0]"},
                 {"obstacles", "N", "0", "unmapped people-sized boxes beside a test route"},
-                {"motion-distortion", "", "off",
+                {"walkers", "N", "0", "unmapped people walking about a test run, giving way to the robot"},
+                {"motion_distortion", "", "off",
                  "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
                 {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
+                {"bag", "FILE.bag", "",
+                 "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
+                 "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
             },
             argc, argv, 2);
   if (o.help_requested()) {
@@ -52,16 +111,15 @@ int run_simulate(int argc, char** argv) {
 
   sim::SimulationOptions s;
   s.scene = o.text("scene");
-  s.scene_seed = o.count("scene-seed");
-  if (o.text("ground-plane") != "none") s.ground_plane_z = o.number("ground-plane");
+  s.scene_seed = o.count("scene_seed");
+  if (o.text("ground_plane") != "none") s.ground_plane_z = o.number("ground_plane");
   s.lidar = o.text("lidar");
   if (o.has("rate")) {
     s.rate_hz = o.number("rate");
     if (!(s.rate_hz > 0.0)) throw Error("--rate must be positive");
   }
   const std::string route = o.text("route");
-  if (route != "mapping" && route != "test")
-    throw Error("--route must be mapping or test, not '" + route + "'");
+  if (route != "mapping" && route != "test") throw Error("--route must be mapping or test, not '" + route + "'");
   s.route = route == "mapping" ? sim::RouteKind::mapping : sim::RouteKind::test;
   s.seed = o.count("seed");
   if (o.has("duration") && o.has("length")) throw Error("give --duration or --length, not both");
@@ -73,24 +131,45 @@ int run_simulate(int argc, char** argv) {
     s.length_m = o.number("length");
     if (!(s.length_m > 0.0)) throw Error("--length must be positive");
   }
-  s.robot.speed = o.number("speed");
-  s.robot.sensor_height = o.number("sensor-height");
-  s.noise.range_sigma = o.number("range-noise");
+  s.platform = platform_of(o.text("platform"));
+  s.robot = sim::RobotModel::of(s.platform);
+  if (o.has("speed")) s.robot.speed = o.number("speed");
+  if (o.has("sensor_height")) {
+    if (s.platform == sim::Platform::drone)
+      throw Error("--sensor_height does not apply to the drone (it flies 1.0-2.5 m high)");
+    s.robot.sensor_height = o.number("sensor_height");
+  }
+  s.sensor_tilt_deg = o.number("sensor_tilt");
+  if (o.has("start")) s.start = start_of(o);
+  if (o.has("waypoints")) s.waypoints = waypoints_of(o.text("waypoints"));
+  s.noise.range_sigma = o.number("range_noise");
   s.noise.dropout = o.number("dropout");
-  s.odometry.relative = o.number("odom-noise");
+  s.odometry.relative = o.number("odom_noise");
   s.scan_spacing_m =
-      o.has("scan-spacing") ? o.number("scan-spacing") : (s.route == sim::RouteKind::mapping ? 0.5 : 0.0);
+      o.has("scan_spacing") ? o.number("scan_spacing") : (s.route == sim::RouteKind::mapping ? 0.5 : 0.0);
   s.obstacles = o.count("obstacles");
-  s.motion_distortion = o.flag("motion-distortion");
+  s.walkers = o.count("walkers");
+  s.motion_distortion = o.flag("motion_distortion");
   const std::string out = o.text("output");
+  // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
+  std::unique_ptr<BagWriter> bag;
+  if (const auto bag_file = o.maybe("bag")) {
+    check_output_file(*bag_file, "bag");
+    bag = std::make_unique<BagWriter>(*bag_file);
+    s.on_scan = [&](const sim::SimulatedScan& scan) {
+      if (bag->scans() == 0) bag->set_base_T_sensor(scan.base_T_sensor);
+      bag->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);
+    };
+  }
 
   const bool tty = isatty(fileno(stderr)) != 0;
   auto last_report = std::chrono::steady_clock::now();
   s.progress = [&](std::size_t done, std::size_t total) {
     // Announced once the scene and route are ready, so that bad input ends with a single error line.
     if (done == 1) {
-      std::fprintf(stderr, "simulate: scene %s, lidar %s, %s route (seed %llu) -> %s\n", s.scene.c_str(),
-                   s.lidar.c_str(), route.c_str(), static_cast<unsigned long long>(s.seed), out.c_str());
+      std::fprintf(stderr, "simulate: scene %s, lidar %s on %s, %s route (seed %llu) -> %s\n", s.scene.c_str(),
+                   s.lidar.c_str(), o.text("platform").c_str(), route.c_str(), static_cast<unsigned long long>(s.seed),
+                   out.c_str());
     }
     const auto now = std::chrono::steady_clock::now();
     if (done != total && now - last_report < std::chrono::seconds(tty ? 0 : 5)) return;
@@ -99,9 +178,20 @@ int run_simulate(int argc, char** argv) {
     if (tty && done == total) std::fprintf(stderr, "\n");
   };
   const sim::SimulationSummary r = sim::simulate(s, out);
+  if (bag) bag->close();
   std::fprintf(stderr,
                "simulate: %zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s\n",
                r.scans, r.points, r.route_length_m, r.duration_s, r.traversable_area_m2, r.wall_time_s);
+  if (r.landmark_first_seen_scan) {
+    std::fprintf(stderr, "simulate: the landmark is first in view in scan %zu (landmark_points.txt)\n",
+                 *r.landmark_first_seen_scan);
+  } else if (r.has_landmark) {
+    std::fprintf(stderr, "simulate: the landmark is in view in no scan\n");
+  }
+  if (bag) {
+    std::fprintf(stderr, "simulate: wrote %s (%zu scans on /points; tf odom -> base_link -> lidar; /ground_truth)\n",
+                 o.text("bag").c_str(), bag->scans());
+  }
   return 0;
 }
 

@@ -9,5 +9,6 @@ int run_localize(int argc, char** argv);
 int run_evaluate(int argc, char** argv);
 int run_bench(int argc, char** argv);
 int run_render(int argc, char** argv);
+int run_export_cloud(int argc, char** argv);
 
 }  // namespace tsdf_mcl::cli

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "commands.hpp"
@@ -16,13 +17,16 @@ struct Command {
 };
 
 constexpr Command kCommands[] = {
-    {"build-map", tsdf_mcl::cli::run_build_map, "build a TSDF map from a mesh, a dataset's scans or a reference HDF5 map"},
+    {"build-map", tsdf_mcl::cli::run_build_map,
+     "build a TSDF map from a mesh, a dataset's scans, a point cloud or a reference HDF5 map"},
     {"info", tsdf_mcl::cli::run_info, "print a map's resolution, extent, blocks, memory and known/free volume"},
     {"simulate", tsdf_mcl::cli::run_simulate, "simulate a LiDAR driving through a scene; writes a dataset"},
-    {"localize", tsdf_mcl::cli::run_localize, "run the particle filter over a dataset; writes trajectory.tum, report.json"},
+    {"localize", tsdf_mcl::cli::run_localize,
+     "run the particle filter over a dataset; writes trajectory.tum, report.json"},
     {"evaluate", tsdf_mcl::cli::run_evaluate, "compare an estimated trajectory with the dataset's ground truth"},
     {"bench", tsdf_mcl::cli::run_bench, "time the sensor update per backend and particle count (JSON lines)"},
     {"render", tsdf_mcl::cli::run_render, "draw a map, particles and trajectories to PNG"},
+    {"export-cloud", tsdf_mcl::cli::run_export_cloud, "write a dataset's scans at their poses as one world-frame PCD"},
 };
 
 void print_usage(std::FILE* out) {
@@ -43,6 +47,10 @@ int main(int argc, char** argv) {
       return c.run(argc, argv);
     } catch (const tsdf_mcl::Error& e) {
       std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, e.what());
+      return 1;
+    } catch (const std::bad_alloc&) {
+      // Inputs are bounded by the documented limits (README "Limits"); within them the machine may still run out.
+      std::fprintf(stderr, "tsdf-mcl %s: error: out of memory (see the limits in README.md)\n", c.name);
       return 1;
     } catch (const std::exception& e) {
       std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, e.what());

@@ -1,9 +1,11 @@
 #include "options.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
+#include <stdexcept>
 
 #include "tsdf_mcl/error.hpp"
 
@@ -12,9 +14,13 @@ namespace tsdf_mcl::cli {
 Options::Options(std::string command, std::string usage, std::vector<OptionSpec> specs, int argc, char** argv,
                  int first)
     : command_(std::move(command)), usage_(std::move(usage)), specs_(std::move(specs)) {
+  for (const OptionSpec& s : specs_) {
+    // One spelling across every command: nav2's snake_case (the names robotics users bring from AMCL).
+    if (s.name.find('-') != std::string::npos) throw std::logic_error("option --" + s.name + " is not snake_case");
+  }
   for (int i = first; i < argc; ++i) {
     std::string arg = argv[i];
-    // "-o PATH" is the one short option of the command-line contract (DESIGN.md): an alias of --output.
+    // "-o PATH" is the one short option of the command-line contract (docs/architecture.md): an alias of --output.
     if (arg == "-o") arg = "--output";
     if (arg == "--help" || arg == "-h") {
       help_ = true;
@@ -48,6 +54,14 @@ const OptionSpec& Options::spec(const std::string& name) const {
   for (const auto& s : specs_) {
     if (s.name == name) return s;
   }
+  if (name.find('-') != std::string::npos) {
+    std::string snake = name;
+    std::replace(snake.begin(), snake.end(), '-', '_');
+    for (const auto& s : specs_) {
+      if (s.name == snake)
+        throw Error("unknown option --" + name + ": options are spelled with underscores, --" + snake);
+    }
+  }
   throw Error("unknown option --" + name + " (see tsdf-mcl " + command_ + " --help)");
 }
 
@@ -55,9 +69,12 @@ std::string Options::help_text() const {
   std::ostringstream out;
   out << "usage: " << usage_ << "\n\noptions:\n";
   for (const auto& s : specs_) {
-    std::string left = (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
-    if (left.size() < 30) left.resize(30, ' ');
-    else left += "\n" + std::string(30, ' ');
+    std::string left =
+        (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
+    if (left.size() < 30)
+      left.resize(30, ' ');
+    else
+      left += "\n" + std::string(30, ' ');
     out << left << s.help;
     if (!s.default_value.empty()) out << " [default: " << s.default_value << "]";
     out << "\n";
@@ -114,6 +131,12 @@ std::size_t Options::count(const std::string& name) const {
   const long long n = integer(name);
   if (n < 0) throw Error("--" + name + " must not be negative");
   return static_cast<std::size_t>(n);
+}
+
+std::size_t Options::count(const std::string& name, std::size_t max) const {
+  const std::size_t n = count(name);
+  if (n > max) throw Error("--" + name + " " + std::to_string(n) + " is more than the limit of " + std::to_string(max));
+  return n;
 }
 
 std::vector<std::string> Options::list(const std::string& name) const {

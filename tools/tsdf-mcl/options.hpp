@@ -30,9 +30,10 @@ class Options {
   std::optional<std::string> maybe(const std::string& name) const;
   double number(const std::string& name) const;  // finite, else Error naming the option
   long long integer(const std::string& name) const;
-  std::size_t count(const std::string& name) const;  // non-negative integer
-  std::vector<double> numbers(const std::string& name) const;  // comma-separated
-  std::vector<std::string> list(const std::string& name) const;  // comma-separated
+  std::size_t count(const std::string& name) const;                   // non-negative integer
+  std::size_t count(const std::string& name, std::size_t max) const;  // ... at most max (else Error naming it)
+  std::vector<double> numbers(const std::string& name) const;         // comma-separated
+  std::vector<std::string> list(const std::string& name) const;       // comma-separated
   const std::vector<std::string>& positional() const { return positional_; }
   // Requires exactly n positional arguments (named in the message).
   void expect_positional(std::size_t n, const std::string& what) const;

@@ -1,0 +1,33 @@
+#include <memory>
+#include <string>
+
+#include "tsdf_mcl/make_evaluator.hpp"
+
+#include "tsdf_mcl/cpu_evaluator.hpp"
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/vulkan_evaluator.hpp"
+
+namespace tsdf_mcl {
+
+std::unique_ptr<SensorEvaluator> make_evaluator(const TsdfMap& map, const EvaluatorOptions& options,
+                                                std::string* note) {
+  if (options.backend == Backend::kCpu) {
+    auto cpu = std::make_unique<CpuEvaluator>(map, options.cpu_threads);
+    if (note) *note = "backend cpu (requested): " + cpu->device_name();
+    return cpu;
+  }
+  try {
+    auto vk = make_vulkan_evaluator(map, options);
+    if (note)
+      *note =
+          "backend vulkan" + std::string(options.backend == Backend::kAuto ? " (auto)" : "") + ": " + vk->device_name();
+    return vk;
+  } catch (const Error& e) {
+    if (options.backend == Backend::kVulkan) throw;
+    auto cpu = std::make_unique<CpuEvaluator>(map, options.cpu_threads);
+    if (note) *note = "backend cpu (auto; Vulkan unavailable: " + std::string(e.what()) + "): " + cpu->device_name();
+    return cpu;
+  }
+}
+
+}  // namespace tsdf_mcl

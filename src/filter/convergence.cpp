@@ -1,0 +1,75 @@
+#include "tsdf_mcl/convergence.hpp"
+
+#include <cmath>
+
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl {
+
+void ConvergenceOptions::validate() const {
+  if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0)) throw Error("converged_min_inliers must lie in [0, 1]");
+  if (min_updates == 0) throw Error("converged_min_updates must be at least 1");
+  if (!(max_jump_m > 0.0) || !std::isfinite(max_jump_m)) throw Error("convergence: max_jump_m must be positive");
+  if (!(max_jump_rad > 0.0) || !std::isfinite(max_jump_rad)) throw Error("convergence: max_jump_rad must be positive");
+  if (!(competitor_margin >= 0.0 && competitor_margin <= 1.0))
+    throw Error("converged_competitor_margin must lie in [0, 1]");
+  if (!(competitor_min_weight > 0.0 && competitor_min_weight <= 1.0))
+    throw Error("converged_competitor_weight must lie in (0, 1]");
+  if (!(travel_after_jump_m >= 0.0) || !std::isfinite(travel_after_jump_m)) {
+    throw Error("converged_travel_after_jump must not be negative");
+  }
+}
+
+ConvergenceMonitor::ConvergenceMonitor(const ConvergenceOptions& options) : options_(options) { options_.validate(); }
+
+void ConvergenceMonitor::reset() {
+  streak_ = 0;
+  last_ = Pose::Identity();
+  converged_once_ = false;
+  jumped_ = false;
+  travel_ = 0.0;
+}
+
+bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
+  if (e.hypotheses.empty()) return false;
+  const Hypothesis& top = e.hypotheses.front();
+  for (std::size_t k = 1; k < e.hypotheses.size(); ++k) {
+    const Hypothesis& h = e.hypotheses[k];
+    const bool elsewhere = (h.pose.translation() - top.pose.translation()).norm() > options_.max_jump_m ||
+                           rotation_angle_between(h.pose.linear(), top.pose.linear()) > options_.max_jump_rad;
+    if (elsewhere && h.weight >= options_.competitor_min_weight &&
+        h.inlier_ratio >= top.inlier_ratio - options_.competitor_margin) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const Pose& motion, bool lost,
+                                bool searched) {
+  const bool plausible = e.inlier_ratio >= options_.min_inlier_ratio;
+  const Pose predicted = last_ * motion;
+  const bool same_place = (predicted.translation() - e.pose.translation()).norm() <= options_.max_jump_m &&
+                          rotation_angle_between(predicted.linear(), e.pose.linear()) <= options_.max_jump_rad;
+  if (converged_once_ && !same_place) {
+    jumped_ = true;
+    travel_ = 0.0;
+  }
+  if (!(concentrated && plausible && searched) || challenged(e)) {
+    streak_ = 0;
+  } else {
+    if (!(streak_ > 0 && same_place)) travel_ = 0.0;
+    streak_ = streak_ > 0 && same_place ? streak_ + 1 : 1;
+  }
+  travel_ += motion.translation().norm();
+  last_ = e.pose;
+  const bool proven = !jumped_ || travel_ >= options_.travel_after_jump_m;
+  const bool converged = streak_ >= options_.min_updates && proven && !lost;
+  if (converged) {
+    converged_once_ = true;
+    jumped_ = false;
+  }
+  return converged;
+}
+
+}  // namespace tsdf_mcl

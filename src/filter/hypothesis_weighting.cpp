@@ -1,0 +1,57 @@
+#include "tsdf_mcl/hypothesis_weighting.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl {
+namespace {
+constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+}  // namespace
+
+std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups) {
+  double max = kMinusInf;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (group[i] < 0 || static_cast<std::size_t>(group[i]) >= groups) throw Error("hypothesis weighting: bad group");
+    max = std::max(max, v[i]);
+  }
+  std::vector<double> sum(groups, 0.0);
+  for (std::size_t i = 0; i < n; ++i) sum[static_cast<std::size_t>(group[i])] += std::exp(v[i] - max);
+  for (double& s : sum) s = s > 0.0 ? std::log(s) + max : kMinusInf;
+  return sum;
+}
+
+std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
+                                    const std::vector<double>& evidence) {
+  const std::size_t groups = evidence.size();
+  for (double e : evidence) {
+    if (!std::isfinite(e)) throw Error("hypothesis weighting: evidence must be finite");
+  }
+  const std::vector<double> before = group_log_sums(prior, group, n, groups);
+  const std::vector<double> after = group_log_sums(post, group, n, groups);
+  std::vector<double> log_share(groups, kMinusInf);
+  double max = kMinusInf;
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (before[g] == kMinusInf || after[g] == kMinusInf) continue;
+    log_share[g] = before[g] + evidence[g];  // prior share (unnormalized) times the evidence
+    max = std::max(max, log_share[g]);
+  }
+  double total = 0.0;
+  for (double l : log_share) total += l == kMinusInf ? 0.0 : std::exp(l - max);
+  std::vector<double> share(groups, 0.0);
+  std::vector<double> shift(groups, 0.0);
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (log_share[g] == kMinusInf) continue;
+    const double normalized = log_share[g] - max - std::log(total);
+    share[g] = std::exp(normalized);
+    // Relative shifts are all that matter (weights are normalized later): the group's post weights, summing to
+    // exp(after[g]), must sum to exp(normalized) times a common constant.
+    shift[g] = normalized - after[g];
+  }
+  for (std::size_t i = 0; i < n; ++i) post[i] += shift[static_cast<std::size_t>(group[i])];
+  return share;
+}
+
+}  // namespace tsdf_mcl

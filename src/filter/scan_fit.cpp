@@ -1,0 +1,146 @@
+#include "tsdf_mcl/scan_fit.hpp"
+
+#include <cmath>
+
+#include "tsdf_mcl/endpoint_kernel.hpp"
+
+namespace tsdf_mcl {
+
+double inlier_ratio(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points,
+                    float max_distance) {
+  if (points.empty() || map.empty()) return 0.0;
+  // The sensor update's own lookup (nearest voxel, same float arithmetic), so "near a surface" means what
+  // the likelihood saw.
+  const kernel::MapView view(map);
+  const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
+  float r[9];
+  kernel::rotation_matrix(q.w(), q.x(), q.y(), q.z(), r);
+  const Eigen::Vector3f tf = pose.translation().cast<float>();
+  const float t[3] = {tf.x(), tf.y(), tf.z()};
+  const auto limit = static_cast<std::int32_t>(std::ceil(max_distance / view.quant_step));
+  std::size_t inliers = 0;
+  for (const Eigen::Vector3f& p : points) {
+    float g[3];
+    kernel::to_grid(r, t, view.inv_voxel, p.x(), p.y(), p.z(), g);
+    const std::int32_t v = kernel::sample_nearest(view, g);
+    if (v != TsdfMap::kUnknownValue && std::abs(v) <= limit) ++inliers;
+  }
+  return static_cast<double>(inliers) / static_cast<double>(points.size());
+}
+
+RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, float max_distance,
+               float end_margin) {
+  RayFit fit;
+  fit.points = points.size();
+  if (points.empty() || map.empty()) return fit;
+  const kernel::MapView view(map);
+  const float voxel = map.voxel_size();
+  const auto near_limit = static_cast<std::int32_t>(std::ceil(max_distance / view.quant_step));
+  const auto inside_limit = static_cast<std::int32_t>(std::floor(-2.0f * voxel / view.quant_step));
+  const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
+  float rm[9];
+  kernel::rotation_matrix(q.w(), q.x(), q.y(), q.z(), rm);
+  const Eigen::Vector3f tf = pose.translation().cast<float>();
+  const float t[3] = {tf.x(), tf.y(), tf.z()};
+  const Eigen::Vector3f origin = tf * view.inv_voxel;  // grid units
+  const auto value_at = [&](const Eigen::Vector3f& g) {
+    const float gg[3] = {g.x(), g.y(), g.z()};
+    return kernel::sample_nearest(view, gg);
+  };
+  for (const Eigen::Vector3f& p : points) {
+    // The endpoint as the sensor update computes it, so that "inlier" means what the likelihood saw.
+    float g[3];
+    kernel::to_grid(rm, t, view.inv_voxel, p.x(), p.y(), p.z(), g);
+    const Eigen::Vector3f end(g[0], g[1], g[2]);
+    const std::int32_t at_end = kernel::sample_nearest(view, g);
+    if (at_end != TsdfMap::kUnknownValue && std::abs(at_end) <= near_limit) ++fit.inliers;
+    const float length = p.norm();
+    if (!(length > end_margin)) continue;
+    const Eigen::Vector3f direction = (end - origin) / (length * view.inv_voxel);  // grid units per metre
+    // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
+    // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
+    const float stop = length - end_margin;
+    for (float s = 0.0f; s < stop;) {
+      const std::int32_t v = value_at(origin + s * direction);
+      if (v == TsdfMap::kUnknownValue) {
+        s += voxel;
+        continue;
+      }
+      if (v <= inside_limit) {
+        ++fit.see_through;
+        break;
+      }
+      s += std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
+    }
+  }
+  return fit;
+}
+
+Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations) {
+  if (points.empty() || map.empty()) return pose;
+  const kernel::MapView view(map);
+  const float h = 0.5f * map.voxel_size();
+  const float band = 0.8f * map.truncation();
+  constexpr double kHuber = 0.1;  // m
+  // Distance at a world position (trilinear, renormalized over known corners), false if unknown.
+  const auto distance = [&](const Eigen::Vector3f& w, float* d) {
+    const float g[3] = {w.x() * view.inv_voxel, w.y() * view.inv_voxel, w.z() * view.inv_voxel};
+    return kernel::sample_trilinear(view, g, d);
+  };
+  Pose current = pose;
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
+    std::size_t used = 0;
+    const Eigen::Matrix3f r = current.linear().cast<float>();
+    const Eigen::Vector3f t = current.translation().cast<float>();
+    for (const Eigen::Vector3f& p : points) {
+      const Eigen::Vector3f w = r * p + t;
+      float d = 0.0f;
+      if (!distance(w, &d) || std::abs(d) > band) continue;
+      Eigen::Vector3f grad;
+      bool known = true;
+      for (int a = 0; a < 3 && known; ++a) {
+        Eigen::Vector3f lo = w, hi = w;
+        lo[a] -= h;
+        hi[a] += h;
+        float dl = 0.0f, dh = 0.0f;
+        known = distance(lo, &dl) && distance(hi, &dh);
+        grad[a] = (dh - dl) / (2.0f * h);
+      }
+      if (!known) continue;
+      // Rotation about the sensor, not the map's origin (tens of metres away, where a small turn is a large
+      // shift): d(w') for w' = t + dt + (1 + [dtheta]x) R p, so the Jacobian is [grad, (R p) x grad].
+      Eigen::Matrix<double, 6, 1> j;
+      j.head<3>() = grad.cast<double>();
+      j.tail<3>() = (r * p).cast<double>().cross(grad.cast<double>());
+      const double weight = std::abs(d) <= kHuber ? 1.0 : kHuber / std::abs(d);
+      jtj += weight * j * j.transpose();
+      jtr += weight * j * static_cast<double>(d);
+      ++used;
+    }
+    if (used < 12) return current;
+    // Levenberg-Marquardt damping: the directions few points constrain (a level LiDAR's roll and pitch) move
+    // little rather than wildly.
+    Eigen::Matrix<double, 6, 6> damped = jtj;
+    damped.diagonal() += 0.05 * jtj.diagonal() + Eigen::Matrix<double, 6, 1>::Constant(1e-6);
+    const Eigen::Matrix<double, 6, 1> delta = -damped.ldlt().solve(jtr);
+    if (!delta.allFinite()) return current;
+    // Steps beyond 0.1 m or 2° would leave the region the linearization describes; each part on its own, so that
+    // a poorly held rotation does not stall the translation.
+    Eigen::Matrix<double, 6, 1> applied = delta;
+    if (applied.head<3>().norm() > 0.1) applied.head<3>() *= 0.1 / applied.head<3>().norm();
+    if (applied.tail<3>().norm() > 0.035) applied.tail<3>() *= 0.035 / applied.tail<3>().norm();
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(applied.tail<3>().norm(),
+                          applied.tail<3>().norm() > 0.0 ? applied.tail<3>().normalized() : Eigen::Vector3d::UnitZ())
+            .toRotationMatrix();
+    Pose next = Pose::Identity();
+    next.linear() = turn * current.linear();
+    next.translation() = current.translation() + applied.head<3>();
+    current = next;
+  }
+  return current;
+}
+
+}  // namespace tsdf_mcl

@@ -1,0 +1,152 @@
+#include "tsdf_mcl/localizer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/make_evaluator.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+constexpr double kImuKeep = 2.0;             // s of IMU samples kept before the latest one
+constexpr std::size_t kUpdateTimes = 10000;  // updates the summary's median is taken over (the latest)
+
+}  // namespace
+
+Localizer::Localizer(const TsdfMap& map, const LocalizerOptions& options)
+    : map_(map), options_(options), preprocessor_(options.preprocessing) {
+  options_.filter.validate();
+  evaluator_ = make_evaluator(map_, options_.evaluator, &backend_note_);
+  filter_ = std::make_unique<ParticleFilter>(map_, *evaluator_, options_.filter, options_.preprocessing.max_beams);
+  min_particles_ = max_particles_ = options_.filter.initial_particles;
+  if (options_.initial_pose) reset_to(*options_.initial_pose);
+}
+
+Localizer::~Localizer() = default;
+
+void Localizer::add_imu(const ImuSample& sample) {
+  if (!imu_.empty() && sample.time < imu_.back().time) {
+    throw Error("IMU samples must come in time order (" + std::to_string(sample.time) + " s after " +
+                std::to_string(imu_.back().time) + " s)");
+  }
+  imu_.push_back(sample);
+  while (!imu_.empty() && imu_.front().time < sample.time - kImuKeep) imu_.pop_front();
+}
+
+void Localizer::reset_to(const Pose& pose) {
+  const auto t0 = Clock::now();
+  filter_->initialize_local(pose);
+  pending_global_ = false;
+  InitializationRecord r;
+  r.global = false;
+  r.particles = options_.filter.initial_particles;
+  r.ms = ms_since(t0);
+  initialization_ = r;
+  converged_since_time_.reset();
+  converged_since_index_.reset();
+}
+
+void Localizer::reset_global() { pending_global_ = true; }
+
+void Localizer::initialize(const std::vector<Eigen::Vector3f>* points, const ScanExtras& extras) {
+  const auto t0 = Clock::now();
+  filter_->initialize_global(*points, extras);
+  pending_global_ = false;
+  InitializationRecord r;
+  r.global = true;
+  r.particles = options_.filter.initial_particles;
+  r.hypotheses_scored = std::max(options_.filter.initial_particles, options_.filter.global_search.candidates);
+  r.gravity_source = extras.imu_up ? "imu" : "scan";
+  r.candidates = filter_->gravity_candidates();
+  r.free_space_voxels = filter_->free_space_voxels();
+  r.ms = ms_since(t0);
+  initialization_ = r;
+  converged_since_time_.reset();
+  converged_since_index_.reset();
+}
+
+const ScanRecord& Localizer::process(double time, const std::vector<Eigen::Vector3f>& points,
+                                     const std::optional<Pose>& odometry, std::optional<std::uint64_t> scan_id) {
+  record_ = ScanRecord{};
+  record_.time = time;
+  record_.index = scans_;
+  const auto t0 = Clock::now();
+  const std::vector<Eigen::Vector3f>& selected =
+      preprocessor_.process(points, scan_id.value_or(scans_), &record_.points);
+  record_.preprocess_ms = ms_since(t0);
+  if (selected.empty()) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "none of %zu points lies within laser_min_range %.2f m .. laser_max_range %.2f m",
+                  points.size(), static_cast<double>(options_.preprocessing.laser_min_range),
+                  static_cast<double>(options_.preprocessing.laser_max_range));
+    throw Error(buf);
+  }
+  ScanExtras extras;
+  extras.dense = &points;
+  if (options_.use_imu && !imu_.empty()) {
+    extras.imu_up = imu_up_at(std::vector<ImuSample>(imu_.begin(), imu_.end()), time);
+  }
+  if (pending_global_) initialize(&selected, extras);
+  record_.particles_before = filter_->particle_count();
+  record_.step = filter_->update(time, selected, odometry, extras);
+
+  ++scans_;
+  const FilterStep& step = record_.step;
+  if (step.updated) {
+    ++updates_;
+    if (update_ms_.size() == kUpdateTimes) update_ms_.erase(update_ms_.begin());
+    update_ms_.push_back(step.timings.total_ms);
+    update_ms_sum_ += step.timings.total_ms;
+    update_ms_max_ = std::max(update_ms_max_, step.timings.total_ms);
+    min_particles_ = std::min(min_particles_, step.next_particles);
+    max_particles_ = std::max(max_particles_, step.next_particles);
+    if (!step.estimate.converged) {
+      converged_since_time_.reset();
+      converged_since_index_.reset();
+    } else if (!converged_since_time_) {
+      converged_since_time_ = time;
+      converged_since_index_ = record_.index;
+    }
+  }
+  return record_;
+}
+
+RunSummary Localizer::summary() const {
+  RunSummary s;
+  s.scans = scans_;
+  s.updates = updates_;
+  s.converged = filter_->estimate().converged;
+  s.converged_since_time = converged_since_time_;
+  s.converged_since_index = converged_since_index_;
+  s.particles_min = min_particles_;
+  s.particles_max = max_particles_;
+  s.particles_final = filter_->particle_count();
+  if (!update_ms_.empty()) {
+    std::vector<double> sorted = update_ms_;
+    std::sort(sorted.begin(), sorted.end());
+    s.update_ms_mean = update_ms_sum_ / static_cast<double>(updates_);
+    s.update_ms_median = sorted[sorted.size() / 2];
+    s.update_ms_max = update_ms_max_;
+  }
+  return s;
+}
+
+ParticleSnapshot Localizer::snapshot() const {
+  const ParticleArrays p = filter_->particles();
+  const std::vector<double> w = filter_->particle_weights();
+  ParticleSnapshot snapshot;
+  snapshot.particles.resize(w.size());
+  for (std::size_t i = 0; i < w.size(); ++i) {
+    snapshot.particles[i].position = p.position(i);
+    snapshot.particles[i].orientation = p.rotation(i);
+    snapshot.particles[i].weight = static_cast<float>(w[i]);
+  }
+  return snapshot;
+}
+
+}  // namespace tsdf_mcl

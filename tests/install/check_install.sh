@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs the build in BUILD_DIR into a scratch prefix and builds tests/install/consumer against it twice: with
+# find_package(tsdf_mcl COMPONENTS ...) and with pkg-config; runs both programs.
+#   bash tests/install/check_install.sh BUILD_DIR SCRATCH_DIR
+set -euo pipefail
+build=$(realpath "$1")
+scratch="$2"
+here=$(cd "$(dirname "$0")" && pwd)
+rm -rf "$scratch" && mkdir -p "$scratch"
+prefix="$scratch/prefix"
+cmake --install "$build" --prefix "$prefix" >/dev/null
+[ -x "$prefix/bin/tsdf-mcl" ] || { echo "check_install: no bin/tsdf-mcl in the prefix" >&2; exit 1; }
+"$prefix/bin/tsdf-mcl" --help >/dev/null
+
+cmake -S "$here/consumer" -B "$scratch/cmake" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
+cmake --build "$scratch/cmake" >/dev/null
+"$scratch/cmake/consumer"
+
+# An unknown component must fail find_package with a message naming it.
+mkdir -p "$scratch/bad"
+printf 'cmake_minimum_required(VERSION 3.22)\nproject(bad LANGUAGES CXX)\nfind_package(tsdf_mcl REQUIRED COMPONENTS warp_drive)\n' \
+  >"$scratch/bad/CMakeLists.txt"
+if cmake -S "$scratch/bad" -B "$scratch/bad/build" -DCMAKE_PREFIX_PATH="$prefix" >"$scratch/bad.log" 2>&1; then
+  echo "check_install: find_package accepted an unknown component" >&2; exit 1
+fi
+grep -q "warp_drive" "$scratch/bad.log" || { echo "check_install: the error does not name the component" >&2; exit 1; }
+
+export PKG_CONFIG_PATH="$prefix/lib/pkgconfig${PKG_CONFIG_PATH:+:$PKG_CONFIG_PATH}"
+# shellcheck disable=SC2046
+c++ -O1 -o "$scratch/consumer_pc" "$here/consumer/consumer.cpp" $(pkg-config --cflags --libs tsdf_mcl)
+"$scratch/consumer_pc"
+echo "check_install: the installed package builds and runs a consumer (CMake and pkg-config)"

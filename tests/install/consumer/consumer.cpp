@@ -1,0 +1,52 @@
+// Builds a TSDF map of a 6 x 4 x 3 m room, tracks a LiDAR standing in it from an initial pose through the
+// streaming interface, and checks the estimate: the smallest useful program on the installed library.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/map_builder.hpp"
+
+int main() {
+  using tsdf_mcl::Pose;
+  // The room's inside faces, normals pointing into the room (the free side).
+  tsdf_mcl::TriangleMesh room;
+  const float x = 6.0f, y = 4.0f, z = 3.0f;
+  room.vertices = {{0, 0, 0}, {x, 0, 0}, {x, y, 0}, {0, y, 0}, {0, 0, z}, {x, 0, z}, {x, y, z}, {0, y, z}};
+  room.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 6, 5}, {4, 7, 6}, {0, 4, 5}, {0, 5, 1},
+                    {1, 5, 6}, {1, 6, 2}, {2, 6, 7}, {2, 7, 3}, {3, 7, 4}, {3, 4, 0}};
+  tsdf_mcl::MeshMapOptions map_options;
+  map_options.voxel_size = 0.1f;
+  const tsdf_mcl::TsdfMap map = tsdf_mcl::build_map_from_mesh(room, map_options);
+
+  // A scan from (2, 1.5, 1): where rays in every direction meet the walls.
+  const Eigen::Vector3f sensor(2.0f, 1.5f, 1.0f);
+  std::vector<Eigen::Vector3f> scan;
+  for (int i = 0; i < 64; ++i) {
+    for (int j = -6; j <= 6; ++j) {
+      const float a = 2.0f * static_cast<float>(M_PI) * static_cast<float>(i) / 64.0f,
+                  e = 0.12f * static_cast<float>(j);
+      const Eigen::Vector3f d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+      float t = 1e9f;  // distance to the first wall along d
+      for (int k = 0; k < 3; ++k) {
+        if (std::abs(d[k]) < 1e-6f) continue;
+        const float wall = d[k] > 0 ? Eigen::Vector3f(x, y, z)[k] : 0.0f;
+        t = std::min(t, (wall - sensor[k]) / d[k]);
+      }
+      scan.push_back(t * d);  // sensor frame: the sensor is not rotated
+    }
+  }
+
+  tsdf_mcl::LocalizerOptions options;
+  options.evaluator.backend = tsdf_mcl::Backend::kCpu;
+  options.filter.initial_particles = 2000;
+  options.initial_pose = tsdf_mcl::pose_from_xyz_rpy(2.2, 1.4, 1.0, 0.0, 0.0, 0.05);
+  tsdf_mcl::Localizer localizer(map, options);
+  Pose odom = Pose::Identity();
+  for (int k = 0; k < 5; ++k) localizer.process(0.1 * k, scan, odom);
+  const Eigen::Vector3d error = localizer.estimate().pose.translation() - sensor.cast<double>();
+  std::printf("consumer: estimate %.3f %.3f %.3f, error %.3f m\n", localizer.estimate().pose.translation().x(),
+              localizer.estimate().pose.translation().y(), localizer.estimate().pose.translation().z(), error.norm());
+  return error.norm() < 0.2 ? 0 : 1;
+}

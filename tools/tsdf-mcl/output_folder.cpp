@@ -1,0 +1,59 @@
+#include "output_folder.hpp"
+
+#include <unistd.h>
+
+#include "tsdf_mcl/atomic_file.hpp"
+#include "tsdf_mcl/error.hpp"
+
+namespace tsdf_mcl::cli {
+namespace fs = std::filesystem;
+
+StagedOutputFolder::StagedOutputFolder(const fs::path& folder, std::vector<std::string> names)
+    : names_(std::move(names)) {
+  if (folder.empty()) throw Error("-o needs a folder name");
+  // "run/" and "run" are the same folder; the staging folder goes beside it, on the same file system.
+  folder_ = fs::absolute(folder).lexically_normal();
+  if (folder_.filename().empty()) folder_ = folder_.parent_path();
+  std::error_code ec;
+  if (fs::exists(folder_, ec) && !fs::is_directory(folder_, ec)) {
+    throw Error("output folder " + folder.string() + " is a file, not a folder");
+  }
+  if (!fs::is_directory(folder_.parent_path(), ec)) {
+    throw Error("cannot create output folder " + folder.string() + ": " + folder_.parent_path().string() +
+                " does not exist");
+  }
+  if (fs::is_directory(folder_, ec)) check_output_file(folder_ / names_.front(), "results into");
+  staging_ = folder_.parent_path() / ("." + folder_.filename().string() + ".partial-" + std::to_string(::getpid()));
+  fs::remove_all(staging_, ec);
+  if (!fs::create_directory(staging_, ec) || ec) {
+    throw Error("cannot write output folder " + folder.string() + ": cannot create " + staging_.string() +
+                (ec ? ": " + ec.message() : std::string()));
+  }
+}
+
+StagedOutputFolder::~StagedOutputFolder() {
+  std::error_code ignored;
+  fs::remove_all(staging_, ignored);
+}
+
+void StagedOutputFolder::commit() {
+  std::error_code ec;
+  fs::create_directories(folder_, ec);
+  if (ec) throw Error("cannot create output folder " + folder_.string() + ": " + ec.message());
+  // The previous run's results go into the staging folder first (a folder cannot be renamed over a non-empty one),
+  // and are deleted with it.
+  const fs::path previous = staging_ / ".previous";
+  fs::create_directory(previous, ec);
+  for (const std::string& name : names_) {
+    if (fs::exists(folder_ / name, ec)) {
+      fs::rename(folder_ / name, previous / name, ec);
+      if (ec) throw Error("cannot replace " + (folder_ / name).string() + ": " + ec.message());
+    }
+    if (fs::exists(staging_ / name, ec)) {
+      fs::rename(staging_ / name, folder_ / name, ec);
+      if (ec) throw Error("cannot move " + name + " into " + folder_.string() + ": " + ec.message());
+    }
+  }
+}
+
+}  // namespace tsdf_mcl::cli
