@@ -13,6 +13,7 @@ packages=(
   clang-14 libclang-rt-14-dev libomp-14-dev clang-format-14 clang-tidy-14
   librosbag-storage-dev libroscpp-core-dev libstd-msgs-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
   libtf2-msgs-dev
+  libroscpp-dev libtf2-ros-dev libstd-srvs-dev libdiagnostic-msgs-dev python3-rosmaster python3-roslaunch rosout python3-rosbag librosbag-dev
 )
 
 if [ "$(id -u)" -eq 0 ]; then

@@ -26,8 +26,14 @@ void ConvergenceMonitor::reset() {
   streak_ = 0;
   last_ = Pose::Identity();
   converged_once_ = false;
+  concentrated_before_ = false;
   jumped_ = false;
   travel_ = 0.0;
+}
+
+void ConvergenceMonitor::restart_after_wrong_lock() {
+  reset();
+  jumped_ = true;
 }
 
 bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
@@ -51,10 +57,13 @@ bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const 
   const Pose predicted = last_ * motion;
   const bool same_place = (predicted.translation() - e.pose.translation()).norm() <= options_.max_jump_m &&
                           rotation_angle_between(predicted.linear(), e.pose.linear()) <= options_.max_jump_rad;
-  if (converged_once_ && !same_place) {
+  // A change of mind: the dominant hypothesis left a place the filter had converged at, or had concentrated on
+  // (an operator's initial pose, a lock the background search then outscored).
+  if ((converged_once_ || concentrated_before_) && !same_place) {
     jumped_ = true;
     travel_ = 0.0;
   }
+  concentrated_before_ = concentrated;
   if (!(concentrated && plausible && searched) || challenged(e)) {
     streak_ = 0;
   } else {

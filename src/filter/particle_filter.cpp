@@ -735,7 +735,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
     ever_converged_ = false;
     recovery_.reset();
-    convergence_.reset();
+    convergence_.restart_after_wrong_lock();
     challengers_weighed_ = false;
     last_challenge_time_ = -1e300;
   }

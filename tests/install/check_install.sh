@@ -29,4 +29,16 @@ export PKG_CONFIG_PATH="$prefix/lib/pkgconfig${PKG_CONFIG_PATH:+:$PKG_CONFIG_PAT
 # shellcheck disable=SC2046
 c++ -O1 -o "$scratch/consumer_pc" "$here/consumer/consumer.cpp" $(pkg-config --cflags --libs tsdf_mcl)
 "$scratch/consumer_pc"
+
+# The ROS package, where the node was built and roslaunch is installed: roslaunch finds the installed node and
+# the launch file sets the map and the topics.
+if [ -x "$prefix/lib/tsdf_mcl/tsdf_mcl_node" ] && command -v roslaunch >/dev/null; then
+  export ROS_PACKAGE_PATH="$prefix/share" CMAKE_PREFIX_PATH="$prefix" ROS_HOME="$scratch/ros"
+  args=$(roslaunch --args /tsdf_mcl tsdf_mcl tsdf_mcl.launch map:=/maps/x.tsdf)
+  [[ "$args" == *"$prefix/lib/tsdf_mcl/tsdf_mcl_node"* ]] || { echo "check_install: roslaunch runs '$args'" >&2; exit 1; }
+  params=$(roslaunch --dump-params tsdf_mcl tsdf_mcl.launch map:=/maps/x.tsdf points:=/lidar/points)
+  grep -q "map_file: /maps/x.tsdf" <<<"$params" && grep -q -- "- /lidar/points" <<<"$params" ||
+    { echo "check_install: the launch file's parameters are wrong: $params" >&2; exit 1; }
+  echo "check_install: roslaunch finds the installed node"
+fi
 echo "check_install: the installed package builds and runs a consumer (CMake and pkg-config)"

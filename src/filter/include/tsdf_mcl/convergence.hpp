@@ -12,12 +12,14 @@
 //     hypothesis moved as the odometry says), so one lucky scan does not decide; counted only once the
 //     background search (challengers, particle_filter.hpp) has had its say, so that a lone wrong lock is
 //     questioned before it is believed;
-//   - after a change of mind, proven by travel: once the filter has converged, a dominant hypothesis that
-//     jumps elsewhere means the filter was wrong before or is wrong now. The new place must then stay dominant
-//     over travel_after_jump_m of motion (new views of the building) before it is called converged: the
-//     evidence that moved the belief may come from one badly mapped corner (a drone under a ceiling that the
-//     ground robot that built the map saw only at grazing angles), and the same corner seen again is not
-//     new evidence.
+//   - after a change of mind, proven by travel: once the filter has converged or concentrated on one place, a
+//     dominant hypothesis that jumps elsewhere means the filter was wrong before or is wrong now. The new place must
+//     then stay dominant over travel_after_jump_m of motion (new views of the building) before it is called converged:
+//     the evidence that moved the belief may come from one badly mapped corner (a drone under a ceiling that the ground
+//     robot that built the map saw only at grazing angles), and the same corner seen again is not new evidence. The
+//     same holds after a wrong lock was found out (an implausible fit made the filter search again): the search that
+//     chose the wrong place once may choose a look-alike again (an operator's initial pose that was wrong, or a
+//     kidnapping, sends the search through the whole map), so its next place too must hold over travel_after_jump_m.
 // Recovery that considers the track lost overrides all of it.
 #include <cstddef>
 
@@ -41,7 +43,8 @@ struct ConvergenceOptions {
   // much and still count as the same place.
   double max_jump_m = 0.5;
   double max_jump_rad = 0.35;
-  // Travel (odometry translation, m) the dominant hypothesis must hold after a jump away from a converged track.
+  // Travel (odometry translation, m) the dominant hypothesis must hold after a jump away from a converged track
+  // or after a wrong lock was found out.
   double travel_after_jump_m = 5.0;
 
   void validate() const;  // throws Error naming the parameter
@@ -57,6 +60,8 @@ class ConvergenceMonitor {
   // search).
   bool update(const PoseEstimate& estimate, bool concentrated, const Pose& motion, bool lost, bool searched);
   void reset();
+  // reset(), and the next place must hold over travel_after_jump_m: the filter just found out it was wrong.
+  void restart_after_wrong_lock();
   std::size_t streak() const { return streak_; }  // consecutive updates concentrated and plausible at one place
   // Whether a hypothesis of `estimate` competes with the dominant one (see competitor_margin).
   bool challenged(const PoseEstimate& estimate) const;
@@ -65,9 +70,10 @@ class ConvergenceMonitor {
   ConvergenceOptions options_;
   std::size_t streak_ = 0;
   Pose last_ = Pose::Identity();
-  bool converged_once_ = false;  // since reset(): a jump after it needs travel_after_jump_m
-  bool jumped_ = false;          // the dominant hypothesis jumped after converged_once_, not yet proven
-  double travel_ = 0.0;          // m of odometry since the streak started
+  bool converged_once_ = false;       // since reset(): a jump after it needs travel_after_jump_m
+  bool concentrated_before_ = false;  // the last update's belief was concentrated: a jump from it needs it too
+  bool jumped_ = false;  // a jump after converged_once_ or a wrong lock found out, not yet proven by travel
+  double travel_ = 0.0;  // m of odometry since the streak started
 };
 
 }  // namespace tsdf_mcl

@@ -1,0 +1,21 @@
+// tsdf_mcl_node: 6-DoF Monte Carlo localization in a TSDF map for ROS 1 (localization_node.hpp).
+#include <ros/ros.h>
+
+#include <exception>
+
+#include "localization_node.hpp"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "tsdf_mcl");
+  ros::NodeHandle nh, pnh("~");
+  try {
+    tsdf_mcl::ros_node::LocalizationNode node(nh, pnh);
+    ros::AsyncSpinner spinner(1);  // callbacks on their own thread; the filter runs here
+    spinner.start();
+    node.run();
+  } catch (const std::exception& e) {
+    ROS_FATAL("tsdf_mcl: %s", e.what());
+    return 1;
+  }
+  return 0;
+}

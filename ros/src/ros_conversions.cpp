@@ -1,0 +1,130 @@
+#include "ros_conversions.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "tsdf_mcl/pointcloud2.hpp"
+
+namespace tsdf_mcl::ros_node {
+
+Pose pose_from_msg(const geometry_msgs::Pose& msg) {
+  Eigen::Quaterniond q(msg.orientation.w, msg.orientation.x, msg.orientation.y, msg.orientation.z);
+  // An all-zero quaternion (a message that left the orientation out) means no rotation.
+  q = q.norm() > 1e-9 ? q.normalized() : Eigen::Quaterniond::Identity();
+  Pose p = Pose::Identity();
+  p.linear() = q.toRotationMatrix();
+  p.translation() = Eigen::Vector3d(msg.position.x, msg.position.y, msg.position.z);
+  return p;
+}
+
+geometry_msgs::Pose msg_from_pose(const Pose& pose) {
+  geometry_msgs::Pose msg;
+  const Eigen::Quaterniond q(pose.rotation());
+  msg.position.x = pose.translation().x();
+  msg.position.y = pose.translation().y();
+  msg.position.z = pose.translation().z();
+  msg.orientation.x = q.x();
+  msg.orientation.y = q.y();
+  msg.orientation.z = q.z();
+  msg.orientation.w = q.w();
+  return msg;
+}
+
+Pose pose_from_msg(const geometry_msgs::Transform& msg) {
+  geometry_msgs::Pose p;
+  p.position.x = msg.translation.x;
+  p.position.y = msg.translation.y;
+  p.position.z = msg.translation.z;
+  p.orientation = msg.rotation;
+  return pose_from_msg(p);
+}
+
+geometry_msgs::Transform transform_from_pose(const Pose& pose) {
+  const geometry_msgs::Pose p = msg_from_pose(pose);
+  geometry_msgs::Transform t;
+  t.translation.x = p.position.x;
+  t.translation.y = p.position.y;
+  t.translation.z = p.position.z;
+  t.rotation = p.orientation;
+  return t;
+}
+
+boost::array<double, 36> ros_covariance(const Pose& mean, const Matrix6d& body_covariance) {
+  // A small rotation δ about the body axes is R·δ about the fixed axes: rotate the rotation rows and columns.
+  Matrix6d j = Matrix6d::Identity();
+  j.bottomRightCorner<3, 3>() = mean.rotation();
+  const Matrix6d world = j * body_covariance * j.transpose();
+  boost::array<double, 36> out{};
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) out[static_cast<std::size_t>(r * 6 + c)] = world(r, c);
+  return out;
+}
+
+PointCloud cloud_from_msg(const sensor_msgs::PointCloud2& msg, const std::string& what,
+                          std::size_t* dropped_non_finite) {
+  PointCloud2Layout layout;
+  layout.height = msg.height;
+  layout.width = msg.width;
+  layout.is_bigendian = msg.is_bigendian != 0;
+  layout.point_step = msg.point_step;
+  layout.row_step = msg.row_step;
+  layout.is_dense = msg.is_dense != 0;
+  for (const sensor_msgs::PointField& f : msg.fields) layout.fields.push_back({f.name, f.offset, f.datatype, f.count});
+  PointCloud2Stats stats;
+  PointCloud cloud = decode_pointcloud2(layout, msg.data.data(), msg.data.size(), &stats, what);
+  if (dropped_non_finite) *dropped_non_finite = stats.dropped_non_finite;
+  return cloud;
+}
+
+sensor_msgs::PointCloud2 msg_from_cloud(const PointCloud& cloud) {
+  const EncodedPointCloud2 encoded = encode_pointcloud2(cloud);
+  sensor_msgs::PointCloud2 msg;
+  msg.height = encoded.layout.height;
+  msg.width = encoded.layout.width;
+  msg.is_bigendian = encoded.layout.is_bigendian;
+  msg.point_step = encoded.layout.point_step;
+  msg.row_step = encoded.layout.row_step;
+  msg.is_dense = encoded.layout.is_dense;
+  for (const PointField& f : encoded.layout.fields) {
+    sensor_msgs::PointField field;
+    field.name = f.name;
+    field.offset = f.offset;
+    field.datatype = f.datatype;
+    field.count = f.count;
+    msg.fields.push_back(field);
+  }
+  msg.data = encoded.data;
+  return msg;
+}
+
+PointCloud map_surface(const TsdfMap& map, std::size_t max_points) {
+  PointCloud surface;
+  const float band = 0.5f * map.voxel_size();
+  const Eigen::Vector3i dims = map.dims_blocks();
+  for (int bz = 0; bz < dims.z(); ++bz) {
+    for (int by = 0; by < dims.y(); ++by) {
+      for (int bx = 0; bx < dims.x(); ++bx) {
+        const Eigen::Vector3i block = map.min_block() + Eigen::Vector3i(bx, by, bz);
+        const std::uint32_t entry = map.block_entry(block);
+        if (entry == TsdfMap::kUnknownBlock || entry == TsdfMap::kFreeBlock) continue;
+        for (int i = 0; i < TsdfMap::kVoxelsPerBlock; ++i) {
+          const Eigen::Vector3i v =
+              block * TsdfMap::kBlockSize + Eigen::Vector3i(i % TsdfMap::kBlockSize,
+                                                            (i / TsdfMap::kBlockSize) % TsdfMap::kBlockSize,
+                                                            i / (TsdfMap::kBlockSize * TsdfMap::kBlockSize));
+          const std::optional<float> d = map.distance(v);
+          if (d && std::abs(*d) <= band) surface.points.push_back(map.center_of(v));
+        }
+      }
+    }
+  }
+  if (max_points > 0 && surface.points.size() > max_points) {
+    const std::size_t keep_every = (surface.points.size() + max_points - 1) / max_points;
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < surface.points.size(); i += keep_every) surface.points[kept++] = surface.points[i];
+    surface.points.resize(kept);
+  }
+  return surface;
+}
+
+}  // namespace tsdf_mcl::ros_node

@@ -1,0 +1,345 @@
+// The node as a robot runs it: a ROS master on the loopback address, tsdf_mcl_node, and a bag written by
+// `tsdf-mcl simulate --bag` played into it with `rosbag play --clock`. One test (each ctest test is its own process,
+// and the setup - map, bag, master - is most of the cost).
+#include <fcntl.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <signal.h>
+#include <std_srvs/Empty.h>
+#include <sys/wait.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <unistd.h>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ros_conversions.hpp"
+
+namespace tsdf_mcl::ros_node {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+// A child process with its output in a log file; stopped with SIGINT (as roslaunch does), then SIGKILL.
+class Child {
+ public:
+  Child(const std::vector<std::string>& args, const fs::path& log) : name_(args.front()) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (fd >= 0) {
+        dup2(fd, 1);
+        dup2(fd, 2);
+      }
+      std::vector<char*> argv;
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      execvp(argv[0], argv.data());
+      _exit(127);
+    }
+  }
+  ~Child() { stop(); }
+  // Exit status once the child ended within `timeout`, else -1 (still running).
+  int wait_for(std::chrono::seconds timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (pid_ > 0 && std::chrono::steady_clock::now() < end) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+    return pid_ > 0 ? -1 : 0;
+  }
+  bool running() {
+    if (pid_ <= 0) return false;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == pid_) pid_ = -1;
+    return pid_ > 0;
+  }
+  void stop() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGINT);
+    if (wait_for(10s) < 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    pid_ = -1;
+  }
+
+ private:
+  std::string name_;
+  pid_t pid_ = -1;
+};
+
+void run_cli(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(TSDF_MCL_CLI) + " " + args + " >>'" + log.string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd << " failed; see " << log;
+}
+
+struct Scan {
+  ros::Time stamp;
+  Pose pose;
+  std::string state;
+  double update_ms = 0.0, scan_period_ms = 0.0;
+};
+
+// What the test hears from the node, by scan stamp.
+class Recorder {
+ public:
+  explicit Recorder(ros::NodeHandle& nh) {
+    subs_.push_back(nh.subscribe("/amcl_pose", 100, &Recorder::on_pose, this));
+    subs_.push_back(nh.subscribe("/diagnostics", 100, &Recorder::on_status, this));
+    subs_.push_back(nh.subscribe("/ground_truth", 100, &Recorder::on_truth, this));
+  }
+  void on_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    scans_[m->header.stamp].pose = pose_from_msg(m->pose.pose);
+    scans_[m->header.stamp].stamp = m->header.stamp;
+  }
+  void on_status(const diagnostic_msgs::DiagnosticArrayConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& s : m->status) {
+      if (s.name != "tsdf_mcl: localization") continue;
+      Scan& scan = scans_[m->header.stamp];
+      scan.state = s.message;
+      for (const auto& kv : s.values) {
+        if (kv.key == "update_ms") scan.update_ms = std::stod(kv.value);
+        if (kv.key == "scan_period_ms") scan.scan_period_ms = std::stod(kv.value);
+      }
+    }
+  }
+  void on_truth(const nav_msgs::OdometryConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    truth_[m->header.stamp] = pose_from_msg(m->pose.pose);
+  }
+  // Scans with pose, state and ground truth, in time order; clears the record.
+  std::vector<std::pair<Scan, Pose>> take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<std::pair<Scan, Pose>> out;
+    for (const auto& [stamp, scan] : scans_) {
+      const auto t = truth_.find(stamp);
+      if (t != truth_.end() && !scan.state.empty() && scan.stamp == stamp) out.emplace_back(scan, t->second);
+    }
+    scans_.clear();
+    return out;
+  }
+  std::optional<std::pair<ros::Time, Pose>> first_truth() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (truth_.empty()) return std::nullopt;
+    return *truth_.begin();
+  }
+  void clear_truth() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    truth_.clear();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::map<ros::Time, Scan> scans_;
+  std::map<ros::Time, Pose> truth_;
+  std::vector<ros::Subscriber> subs_;
+};
+
+double angle_deg(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.rotation().transpose() * b.rotation()).angle() * 180.0 / M_PI;
+}
+
+struct Outcome {
+  std::size_t scans = 0, converged = 0, false_claims = 0;
+  std::optional<double> converged_after_s;
+  double rmse_m = 0.0, median_update_ms = 0.0, scan_period_ms = 0.0;
+  std::string first_state;
+  Scan first;
+  Pose first_truth;
+};
+
+Outcome summarize(const std::vector<std::pair<Scan, Pose>>& scans) {
+  Outcome o;
+  o.scans = scans.size();
+  if (scans.empty()) return o;
+  o.first_state = scans.front().first.state;
+  o.first = scans.front().first;
+  o.first_truth = scans.front().second;
+  double sq = 0.0;
+  std::vector<double> update_ms;
+  for (const auto& [scan, truth] : scans) {
+    if (scan.state != "converged") continue;
+    const double err = (scan.pose.translation() - truth.translation()).norm();
+    if (err > 1.0 || angle_deg(scan.pose, truth) > 10.0) ++o.false_claims;
+    if (!o.converged_after_s) o.converged_after_s = (scan.stamp - scans.front().first.stamp).toSec();
+    ++o.converged;
+    sq += err * err;
+    update_ms.push_back(scan.update_ms);
+    o.scan_period_ms = scan.scan_period_ms;
+  }
+  if (o.converged > 0) {
+    o.rmse_m = std::sqrt(sq / static_cast<double>(o.converged));
+    std::nth_element(update_ms.begin(), update_ms.begin() + update_ms.size() / 2, update_ms.end());
+    o.median_update_ms = update_ms[update_ms.size() / 2];
+  }
+  return o;
+}
+
+void print(const char* what, const Outcome& o) {
+  std::printf(
+      "%s: %zu scans processed, converged after %.1f s, %zu flagged converged (%zu false), ATE %.3f m, "
+      "median update %.1f ms for a %.0f ms scan period\n",
+      what, o.scans, o.converged_after_s.value_or(-1.0), o.converged, o.false_claims, o.rmse_m, o.median_update_ms,
+      o.scan_period_ms);
+}
+
+TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
+  const fs::path dir = fs::temp_directory_path() / ("tsdf_mcl_ros_test_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "ros");
+  const fs::path log = dir / "cli.log";
+  // The built-in office: a map from the mapping run, a separate 25 m test route written as a bag.
+  run_cli("simulate --scene office --lidar vlp16 --route mapping --seed 1 -o '" + (dir / "mapping").string() + "'",
+          log);
+  run_cli("build-map --dataset '" + (dir / "mapping").string() + "' -o '" + (dir / "office.tsdf").string() + "'", log);
+  run_cli("simulate --scene office --lidar vlp16 --route test --seed 3 --length 25 --bag '" +
+              (dir / "test.bag").string() + "' -o '" + (dir / "test").string() + "'",
+          log);
+  if (HasFatalFailure()) return;
+
+  // A master of our own on the loopback address: nothing else on the machine hears it.
+  const int port = 20000 + static_cast<int>(getpid() % 20000);
+  const std::string master = "http://127.0.0.1:" + std::to_string(port);
+  setenv("ROS_MASTER_URI", master.c_str(), 1);
+  setenv("ROS_HOSTNAME", "127.0.0.1", 1);
+  setenv("ROS_HOME", (dir / "ros").c_str(), 1);
+  setenv("ROS_LOG_DIR", (dir / "ros").c_str(), 1);
+  Child rosmaster({"rosmaster", "--core", "-p", std::to_string(port)}, dir / "rosmaster.log");
+  int argc = 1;
+  char name[] = "tsdf_mcl_test";
+  char* argv[] = {name, nullptr};
+  ros::init(argc, argv, "tsdf_mcl_test", ros::init_options::NoSigintHandler | ros::init_options::AnonymousName);
+  for (int i = 0; i < 200 && !ros::master::check(); ++i) std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(ros::master::check()) << "rosmaster did not start; see " << dir / "rosmaster.log";
+  ros::param::set("/use_sim_time", true);
+  ros::start();
+  ros::NodeHandle nh;
+  Recorder recorder(nh);
+  tf2_ros::Buffer tf_buffer(ros::Duration(60.0));
+  tf2_ros::TransformListener tf_listener(tf_buffer, nh);
+  ros::Publisher initial_pose = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("/initialpose", 1, true);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+
+  Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", "_map_file:=" + (dir / "office.tsdf").string(),
+              "_point_topics:=/points", "_seed:=1"},
+             dir / "node.log");
+  ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
+      << "the node did not come up; see " << dir / "node.log";
+  const std::vector<std::string> play = {"rosbag", "play", "--clock", "-q", (dir / "test.bag").string()};
+
+  // 1. Global localization from nothing, as `localize --init global` does on the same bag.
+  {
+    Child player(play, dir / "play1.log");
+    ASSERT_EQ(player.wait_for(180s), 0) << "rosbag play failed; see " << dir / "play1.log";
+    std::this_thread::sleep_for(1s);
+    ASSERT_TRUE(node.running()) << "the node died; see " << dir / "node.log";
+    const std::vector<std::pair<Scan, Pose>> scans = recorder.take();
+    const Outcome o = summarize(scans);
+    print("node, global", o);
+    ASSERT_GT(o.scans, 20u);
+    ASSERT_TRUE(o.converged_after_s) << "never converged";
+    EXPECT_LT(*o.converged_after_s, 15.0);
+    EXPECT_EQ(o.false_claims, 0u);
+    EXPECT_LT(o.rmse_m, 0.10);
+    // Tracking fits the sensor's period: the node keeps up once converged.
+    EXPECT_LT(o.median_update_ms, o.scan_period_ms);
+    // tf: map -> odom from the node chained with the bag's odom -> base_link is the ground truth.
+    std::size_t checked = 0;
+    for (std::size_t i = scans.size() * 3 / 4; i + 1 < scans.size(); ++i) {
+      const auto& [scan, truth] = scans[i];
+      if (scan.state != "converged") continue;
+      try {
+        const Pose map_T_base =
+            pose_from_msg(tf_buffer.lookupTransform("map", "base_link", scan.stamp, ros::Duration(0.5)).transform);
+        EXPECT_LT((map_T_base.translation() - truth.translation()).norm(), 0.2) << "at " << scan.stamp;
+        EXPECT_LT(angle_deg(map_T_base, truth), 3.0) << "at " << scan.stamp;
+        ++checked;
+      } catch (const tf2::TransformException& e) {
+        ADD_FAILURE() << "no tf map -> base_link at " << scan.stamp << ": " << e.what();
+      }
+    }
+    EXPECT_GE(checked, 5u);
+  }
+
+  // 2. global_localization: the node forgets its pose, searches again and finds it again.
+  {
+    std_srvs::Empty call;
+    ASSERT_TRUE(ros::service::call("/global_localization", call));
+    Child player(play, dir / "play2.log");
+    ASSERT_EQ(player.wait_for(180s), 0);
+    std::this_thread::sleep_for(1s);
+    const Outcome o = summarize(recorder.take());
+    print("node, after global_localization", o);
+    ASSERT_GT(o.scans, 20u);
+    EXPECT_NE(o.first_state, "converged") << "the first scan after global_localization claims convergence";
+    ASSERT_TRUE(o.converged_after_s);
+    EXPECT_EQ(o.false_claims, 0u);
+  }
+
+  // 3. /initialpose as RViz's "2D Pose Estimate" sends it: x, y, yaw near the start, z, roll, pitch 0. The node
+  // takes z, roll and pitch from the map and the scan, and tracks from there.
+  {
+    const auto start = recorder.first_truth();
+    ASSERT_TRUE(start);
+    const Pose truth = start->second;
+    const double yaw = std::atan2(truth.rotation()(1, 0), truth.rotation()(0, 0)) + 0.08;
+    geometry_msgs::PoseWithCovarianceStamped msg;
+    msg.header.frame_id = "map";
+    msg.pose.pose.position.x = truth.translation().x() + 0.3;
+    msg.pose.pose.position.y = truth.translation().y() - 0.2;
+    msg.pose.pose.orientation.z = std::sin(yaw / 2);
+    msg.pose.pose.orientation.w = std::cos(yaw / 2);
+    for (int i = 0; i < 50 && initial_pose.getNumSubscribers() == 0; ++i) std::this_thread::sleep_for(100ms);
+    initial_pose.publish(msg);
+    std::this_thread::sleep_for(500ms);
+    std::vector<std::string> short_play = play;
+    short_play.insert(short_play.end() - 1, {"-u", "8"});
+    Child player(short_play, dir / "play3.log");
+    ASSERT_EQ(player.wait_for(120s), 0);
+    std::this_thread::sleep_for(1s);
+    const Outcome o = summarize(recorder.take());
+    print("node, after /initialpose", o);
+    ASSERT_GT(o.scans, 5u);
+    // The first estimate sits where the operator put it, at the height the map gives.
+    EXPECT_LT(
+        (o.first.pose.translation().head<2>() - Eigen::Vector2d(msg.pose.pose.position.x, msg.pose.pose.position.y))
+            .norm(),
+        0.5);
+    EXPECT_NEAR(o.first.pose.translation().z(), o.first_truth.translation().z(), 0.15);
+    EXPECT_LT(angle_deg(o.first.pose, o.first_truth), 8.0);
+    ASSERT_TRUE(o.converged_after_s);
+    EXPECT_LT(*o.converged_after_s, 5.0);
+    EXPECT_EQ(o.false_claims, 0u);
+  }
+  node.stop();
+  ros::shutdown();
+  rosmaster.stop();
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl::ros_node
