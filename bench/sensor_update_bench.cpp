@@ -1,5 +1,7 @@
 #include "sensor_update_bench.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -79,6 +81,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
       EvaluatorOptions options;
       options.backend = parse_backend(backend);
       options.map_texel_views = config.map_texel_views;
+      options.profile = config.profile;
       evaluator = make_evaluator(map, options);
       evaluator->reserve(max_particles, points.size());
       evaluator->set_points(points);
@@ -90,6 +93,8 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
       place_particles(particles, n, map, true_pose, config.spread, rng);
       std::vector<double> host_ms;
       std::vector<double> gpu_ms;
+      std::vector<double> pass_ms[3];  // transfer, weight, reduce (profile)
+      std::uint64_t invocations[2] = {0, 0};
       for (std::size_t r = 0; r < config.warmup + config.repetitions; ++r) {
         const auto t0 = Clock::now();
         if (evaluator) {
@@ -101,7 +106,15 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
         if (r < config.warmup) continue;
         host_ms.push_back(ms);
         if (evaluator && std::isfinite(evaluator->last_timings().weight_gpu_ms)) {
-          gpu_ms.push_back(evaluator->last_timings().weight_gpu_ms + evaluator->last_timings().reduce_gpu_ms);
+          const UpdateTimings& t = evaluator->last_timings();
+          gpu_ms.push_back(t.weight_gpu_ms + t.reduce_gpu_ms);
+          pass_ms[0].push_back(t.transfer_gpu_ms);
+          pass_ms[1].push_back(t.weight_gpu_ms);
+          pass_ms[2].push_back(t.reduce_gpu_ms);
+        }
+        if (evaluator) {
+          invocations[0] = evaluator->last_timings().weight_invocations;
+          invocations[1] = evaluator->last_timings().reduce_invocations;
         }
       }
       const double med = median(host_ms);
@@ -124,8 +137,63 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"scan", config.scan_name},
       };
       std::fprintf(out, "%s\n", line.dump().c_str());
+      if (config.profile && evaluator && evaluator->backend() == "vulkan") {
+        const char* names[3] = {"transfer", "weight", "reduce"};
+        for (int k = 0; k < 3; ++k) {
+          nlohmann::json pass = {{"profile", "pass"}, {"backend", backend},      {"device", device},
+                                 {"particles", n},    {"points", points.size()}, {"spread", config.spread},
+                                 {"pass", names[k]}};
+          pass["gpu_ms"] = pass_ms[k].empty() ? nlohmann::json(nullptr) : nlohmann::json(median(pass_ms[k]));
+          pass["invocations"] =
+              k == 0 || invocations[k - 1] == 0 ? nlohmann::json(nullptr) : nlohmann::json(invocations[k - 1]);
+          std::fprintf(out, "%s\n", pass.dump().c_str());
+        }
+      }
       std::fflush(out);
       std::fprintf(stderr, "bench: %s %zu particles x %zu points: %.1f ms\n", backend.c_str(), n, points.size(), med);
+    }
+    if (config.profile && evaluator && evaluator->backend() == "vulkan") {
+      const std::vector<ShaderStatistics> shaders = evaluator->shader_statistics();
+      for (const ShaderStatistics& sh : shaders) {
+        nlohmann::json stats = nlohmann::json::object();
+        for (const auto& [name, value] : sh.values) stats[name] = value;
+        nlohmann::json row = {{"profile", "shader"},     {"backend", backend},          {"device", device},
+                              {"pipeline", sh.pipeline}, {"executable", sh.executable}, {"statistics", stats}};
+        std::fprintf(out, "%s\n", row.dump().c_str());
+      }
+      if (shaders.empty()) {
+        nlohmann::json row = {{"profile", "shader"},
+                              {"backend", backend},
+                              {"device", device},
+                              {"statistics", nullptr},
+                              {"note", backend == "vulkan" ? "the driver does not report shader statistics "
+                                                             "(VK_KHR_pipeline_executable_properties)"
+                                                           : "no shaders: CPU backend"}};
+        std::fprintf(out, "%s\n", row.dump().c_str());
+      }
+    }
+    if (config.loop_seconds > 0.0 && evaluator) {
+      // For an external profiler (perf, Nsight, RenderDoc): the same update, over and over.
+      const std::size_t n = max_particles;
+      std::mt19937 rng(config.seed);
+      const ParticleArrays particles = evaluator->particles();
+      place_particles(particles, n, map, true_pose, config.spread, rng);
+      std::fprintf(stderr, "bench: %s: dispatching %zu particles x %zu points for %.0f s (pid %d)\n", backend.c_str(),
+                   n, points.size(), config.loop_seconds, static_cast<int>(getpid()));
+      const auto t0 = Clock::now();
+      std::size_t updates = 0;
+      double elapsed = 0.0;
+      while (elapsed < config.loop_seconds) {
+        evaluator->evaluate(n, config.model, particles.rotation(0));
+        ++updates;
+        elapsed = std::chrono::duration<double>(Clock::now() - t0).count();
+      }
+      nlohmann::json row = {{"profile", "loop"},       {"backend", backend},
+                            {"device", device},        {"particles", n},
+                            {"points", points.size()}, {"seconds", elapsed},
+                            {"updates", updates},      {"mean_ms", 1e3 * elapsed / static_cast<double>(updates)}};
+      std::fprintf(out, "%s\n", row.dump().c_str());
+      std::fflush(out);
     }
   }
 }

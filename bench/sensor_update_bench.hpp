@@ -23,6 +23,12 @@ struct BenchConfig {
   bool map_texel_views = true;  // vulkan: read the map through texel views (false: the storage buffers)
   std::string map_name;
   std::string scan_name;
+  // Shader profiling runs: per-pass GPU time and invocations and the driver's shader statistics as extra JSON lines
+  // ("profile": "pass" / "shader"), debug names and labels for captures (EvaluatorOptions::profile).
+  bool profile = false;
+  // After the measurements of each backend, keep dispatching the largest particle count's update for this long
+  // (an external profiler attaches meanwhile), then print one "profile": "loop" line.
+  double loop_seconds = 0.0;
 };
 
 // Points of the scan spread evenly over the whole scan (every k-th of the finite points), at most `count`.

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -376,6 +377,44 @@ TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
   }
 }
 
+// A shader profiling run: per-pass GPU times and invocations, the shader-statistics line, and the dispatch loop
+// for an external profiler, all as JSON lines that name their pass (validation on, as for every test).
+TEST(CliBench, ProfileNamesEveryPass) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const CliResult r = run_cli(out, "bench --map " + f.map + " --dataset " + f.dataset +
+                                       " --scan 1 --particles 100,300 --points 64 --repetitions 2 --warmup 1"
+                                       " --backend cpu,vulkan --profile --loop 0.3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(r.out);
+  std::string line;
+  std::map<std::string, std::vector<nlohmann::json>> by_kind;
+  while (std::getline(lines, line)) {
+    const nlohmann::json row = nlohmann::json::parse(line);
+    by_kind[row.contains("profile") ? row["profile"].get<std::string>() : "measurement"].push_back(row);
+  }
+  EXPECT_EQ(by_kind["measurement"].size(), 4u);
+  ASSERT_EQ(by_kind["pass"].size(), 6u) << "transfer, weight, reduce for each Vulkan count; none for the CPU";
+  for (std::size_t i = 0; i < 6; ++i) {
+    const nlohmann::json& pass = by_kind["pass"][i];
+    EXPECT_EQ(pass["backend"], "vulkan");
+    EXPECT_EQ(pass["pass"], std::vector<std::string>({"transfer", "weight", "reduce"})[i % 3]);
+    EXPECT_FALSE(pass["gpu_ms"].is_null()) << "lavapipe has timestamps";
+    if (pass["pass"] == "weight") {
+      ASSERT_FALSE(pass["invocations"].is_null()) << "lavapipe has pipeline statistics";
+      EXPECT_GE(pass["invocations"].get<std::uint64_t>(), pass["particles"].get<std::uint64_t>());
+    }
+  }
+  ASSERT_EQ(by_kind["shader"].size(), 1u) << "lavapipe reports no shader statistics: one line that says so";
+  EXPECT_TRUE(by_kind["shader"][0]["statistics"].is_null());
+  ASSERT_EQ(by_kind["loop"].size(), 2u) << "one dispatch loop per backend";
+  for (const auto& loop : by_kind["loop"]) {
+    EXPECT_EQ(loop["particles"], 300);
+    EXPECT_GE(loop["updates"].get<std::size_t>(), 1u);
+    EXPECT_GE(loop["seconds"].get<double>(), 0.3);
+  }
+}
+
 TEST(CliBench, BadInputGivesOneClearError) {
   const Fixture& f = fixture();
   TempDir out;
@@ -387,6 +426,7 @@ TEST(CliBench, BadInputGivesOneClearError) {
   expect_one_line_error(out, base + " --spread far", "--spread must be local or global");
   expect_one_line_error(out, base + " --particles 0", "--particles needs positive integers");
   expect_one_line_error(out, base + " --points 0", "--points must be positive");
+  expect_one_line_error(out, base + " --loop -1", "--loop must lie in [0, 86400] s");
   expect_one_line_error(out, base + " --scan 999", "--scan 999 but the dataset has 24 scans");
   expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset,
                         "missing.tsdf");

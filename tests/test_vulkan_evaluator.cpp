@@ -128,7 +128,8 @@ TEST_P(VulkanReduction, AwkwardParticleCounts) {
   gpu->set_points(scan);
   EndpointModel model;
   model.sigma_hit = 0.2f;
-  for (std::size_t n : {1u, 2u, 7u, 8u, 9u, 63u, 64u, 65u, 255u, 256u, 1023u, 1024u, 1025u, 4097u, 100003u}) {
+  // 1,048,577: a million particles take one more reduction level than 100,003.
+  for (std::size_t n : {1u, 2u, 7u, 8u, 9u, 63u, 64u, 65u, 255u, 256u, 1023u, 1024u, 1025u, 4097u, 100003u, 1048577u}) {
     SCOPED_TRACE(n);
     gpu->reserve(n, scan.size());
     test::random_particles(gpu->particles(), n, rng, Eigen::Vector3f(-3, -2, 0), Eigen::Vector3f(3, 2, 3));

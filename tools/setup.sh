@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package tsdf-mcl needs to build, test and run (as root or through sudo); clang and its
 # runtimes (ASan, UBSan, libFuzzer, OpenMP) serve the sanitizer run and the fuzzers; Debian's ROS 1 rosbag_storage
-# and message headers, ROS bags (docs/bags.md; the build leaves bag support out where they are missing).
+# and message headers, ROS bags (docs/bags.md; the build leaves bag support out where they are missing); roscpp,
+# tf2_ros, rosmaster, roslaunch and rosbag, the ROS 1 node and its test (docs/ros.md; left out where missing);
+# clang-format and clang-tidy, the code style checks.
 set -euo pipefail
 
 packages=(

@@ -4,7 +4,7 @@ namespace tsdf_mcl::gpu {
 
 ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code,
                                  const std::vector<VkDescriptorType>& bindings, std::uint32_t push_constant_bytes,
-                                 const std::vector<std::uint32_t>& specialization)
+                                 const std::vector<std::uint32_t>& specialization, const char* name)
     : device_(ctx.device()), bindings_(static_cast<std::uint32_t>(bindings.size())) {
   VkShaderModule module = VK_NULL_HANDLE;
   try {
@@ -41,8 +41,12 @@ ComputePipeline::ComputePipeline(const VulkanContext& ctx, ShaderCode code,
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &spec;
     info.layout = layout_;
+    if (ctx.caps().executable_properties) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
     check(vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline_), "vkCreateComputePipelines");
     vkDestroyShaderModule(device_, module, nullptr);
+    ctx.name(VK_OBJECT_TYPE_PIPELINE, pipeline_, name);
+    ctx.name(VK_OBJECT_TYPE_PIPELINE_LAYOUT, layout_, name);
+    ctx.name(VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT, set_layout_, name);
   } catch (...) {
     if (module) vkDestroyShaderModule(device_, module, nullptr);
     release();

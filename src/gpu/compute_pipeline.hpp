@@ -15,8 +15,11 @@ struct ShaderCode {
 // and uint32 specialization constants with ids 0..k-1 (id 0 is the workgroup size by convention).
 class ComputePipeline {
  public:
+  // `name` labels the pipeline and its layouts for debuggers and profilers (VK_EXT_debug_utils, where enabled); the
+  // driver keeps shader statistics for it in profiling runs (VulkanContext::shader_statistics).
   ComputePipeline(const VulkanContext& ctx, ShaderCode code, const std::vector<VkDescriptorType>& bindings,
-                  std::uint32_t push_constant_bytes, const std::vector<std::uint32_t>& specialization);
+                  std::uint32_t push_constant_bytes, const std::vector<std::uint32_t>& specialization,
+                  const char* name);
   ~ComputePipeline();
   ComputePipeline(const ComputePipeline&) = delete;
   ComputePipeline& operator=(const ComputePipeline&) = delete;

@@ -74,6 +74,30 @@ bool has_instance_extension(const char* name) {
                      [&](const VkExtensionProperties& e) { return !std::strcmp(e.extensionName, name); });
 }
 
+bool has_device_extension(VkPhysicalDevice device, const char* name) {
+  std::uint32_t n = 0;
+  vkEnumerateDeviceExtensionProperties(device, nullptr, &n, nullptr);
+  std::vector<VkExtensionProperties> exts(n);
+  vkEnumerateDeviceExtensionProperties(device, nullptr, &n, exts.data());
+  return std::any_of(exts.begin(), exts.end(),
+                     [&](const VkExtensionProperties& e) { return !std::strcmp(e.extensionName, name); });
+}
+
+std::string statistic_text(const VkPipelineExecutableStatisticKHR& s) {
+  switch (s.format) {
+    case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
+      return s.value.b32 ? "true" : "false";
+    case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+      return std::to_string(s.value.i64);
+    case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+      return std::to_string(s.value.u64);
+    case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR:
+      return std::to_string(s.value.f64);
+    default:
+      return "?";
+  }
+}
+
 int type_rank(VkPhysicalDeviceType t) {
   switch (t) {
     case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
@@ -127,7 +151,10 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
     }
     layers.push_back("VK_LAYER_KHRONOS_validation");
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  } else if (options.profile && has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME)) {
+    extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);  // names and labels for captures
   }
+  caps_.debug_utils = !extensions.empty();
   VkDebugUtilsMessengerCreateInfoEXT messenger_info{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
   messenger_info.messageSeverity =
       VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
@@ -250,8 +277,50 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
     VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
+    // Profiling: pipeline statistics and the driver's shader statistics, each only where the device has it.
+    VkPhysicalDeviceFeatures enabled{};
+    VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executable{
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+    std::vector<const char*> device_extensions;
+    if (options.profile) {
+      VkPhysicalDeviceFeatures available{};
+      vkGetPhysicalDeviceFeatures(physical_, &available);
+      enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
+      caps_.pipeline_statistics = available.pipelineStatisticsQuery == VK_TRUE;
+      if (has_device_extension(physical_, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
+        VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR query{
+            VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+        VkPhysicalDeviceFeatures2 features2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+        features2.pNext = &query;
+        vkGetPhysicalDeviceFeatures2(physical_, &features2);
+        if (query.pipelineExecutableInfo) {
+          executable.pipelineExecutableInfo = VK_TRUE;
+          device_extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+          device_info.pNext = &executable;
+          caps_.executable_properties = true;
+        }
+      }
+    }
+    device_info.pEnabledFeatures = &enabled;
+    device_info.enabledExtensionCount = static_cast<std::uint32_t>(device_extensions.size());
+    device_info.ppEnabledExtensionNames = device_extensions.data();
     check(vkCreateDevice(physical_, &device_info, nullptr, &device_), "vkCreateDevice");
     vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+    if (caps_.debug_utils) {
+      set_object_name_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
+          vkGetInstanceProcAddr(instance_, "vkSetDebugUtilsObjectNameEXT"));
+      begin_label_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
+          vkGetInstanceProcAddr(instance_, "vkCmdBeginDebugUtilsLabelEXT"));
+      end_label_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
+          vkGetInstanceProcAddr(instance_, "vkCmdEndDebugUtilsLabelEXT"));
+    }
+    if (caps_.executable_properties) {
+      executable_properties_ = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+          vkGetDeviceProcAddr(device_, "vkGetPipelineExecutablePropertiesKHR"));
+      executable_statistics_ = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+          vkGetDeviceProcAddr(device_, "vkGetPipelineExecutableStatisticsKHR"));
+      caps_.executable_properties = executable_properties_ && executable_statistics_;
+    }
   } catch (...) {
     release();
     throw;
@@ -276,6 +345,53 @@ void VulkanContext::release() {
     vkDestroyInstance(instance_, nullptr);
     instance_ = VK_NULL_HANDLE;
   }
+}
+
+void VulkanContext::name(VkObjectType type, std::uint64_t handle, const char* what) const {
+  if (!set_object_name_ || handle == 0) return;
+  VkDebugUtilsObjectNameInfoEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT};
+  info.objectType = type;
+  info.objectHandle = handle;
+  info.pObjectName = what;
+  set_object_name_(device_, &info);
+}
+
+void VulkanContext::begin_label(VkCommandBuffer cmd, const char* label) const {
+  if (!begin_label_) return;
+  VkDebugUtilsLabelEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT};
+  info.pLabelName = label;
+  begin_label_(cmd, &info);
+}
+
+void VulkanContext::end_label(VkCommandBuffer cmd) const {
+  if (end_label_) end_label_(cmd);
+}
+
+std::vector<ShaderStatistics> VulkanContext::shader_statistics(VkPipeline pipeline,
+                                                               const std::string& pipeline_name) const {
+  std::vector<ShaderStatistics> out;
+  if (!caps_.executable_properties || !pipeline) return out;
+  VkPipelineInfoKHR info{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
+  info.pipeline = pipeline;
+  std::uint32_t n = 0;
+  check(executable_properties_(device_, &info, &n, nullptr), "vkGetPipelineExecutablePropertiesKHR");
+  std::vector<VkPipelineExecutablePropertiesKHR> executables(n, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
+  check(executable_properties_(device_, &info, &n, executables.data()), "vkGetPipelineExecutablePropertiesKHR");
+  for (std::uint32_t e = 0; e < n; ++e) {
+    VkPipelineExecutableInfoKHR exec{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+    exec.pipeline = pipeline;
+    exec.executableIndex = e;
+    std::uint32_t m = 0;
+    check(executable_statistics_(device_, &exec, &m, nullptr), "vkGetPipelineExecutableStatisticsKHR");
+    std::vector<VkPipelineExecutableStatisticKHR> stats(m, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+    check(executable_statistics_(device_, &exec, &m, stats.data()), "vkGetPipelineExecutableStatisticsKHR");
+    ShaderStatistics s;
+    s.pipeline = pipeline_name;
+    s.executable = executables[e].name;
+    for (const auto& st : stats) s.values.emplace_back(st.name, statistic_text(st));
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 bool VulkanContext::find_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags required,

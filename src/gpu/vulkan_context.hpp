@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "tsdf_mcl/sensor_evaluator.hpp"
 
@@ -31,6 +32,10 @@ struct DeviceCaps {
   std::uint32_t max_workgroup_invocations = 0;
   std::uint32_t max_workgroup_count_x = 0;
   bool unified_memory = false;  // one memory type is DEVICE_LOCAL | HOST_VISIBLE | HOST_COHERENT
+  // Enabled for profiling runs (EvaluatorOptions::profile) where the device has them.
+  bool pipeline_statistics = false;    // pipelineStatisticsQuery
+  bool executable_properties = false;  // VK_KHR_pipeline_executable_properties
+  bool debug_utils = false;            // VK_EXT_debug_utils on the instance (names and labels)
 };
 
 class VulkanContext {
@@ -52,6 +57,18 @@ class VulkanContext {
   bool find_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
                         std::uint32_t* index, VkMemoryPropertyFlags* flags) const;
 
+  // VK_EXT_debug_utils where enabled (caps().debug_utils), no-ops otherwise: a name on an object, a label around a
+  // pass in a command buffer.
+  void name(VkObjectType type, std::uint64_t handle, const char* name) const;
+  template <typename Handle>
+  void name(VkObjectType type, Handle handle, const char* what) const {
+    name(type, reinterpret_cast<std::uint64_t>(handle), what);
+  }
+  void begin_label(VkCommandBuffer cmd, const char* label) const;
+  void end_label(VkCommandBuffer cmd) const;
+  // The driver's statistics of every executable of `pipeline` (caps().executable_properties), else empty.
+  std::vector<ShaderStatistics> shader_statistics(VkPipeline pipeline, const std::string& pipeline_name) const;
+
   // Validation messages at warning or error severity seen so far (with validation on).
   std::size_t validation_errors() const { return validation_errors_; }
   const std::string& last_validation_message() const { return last_validation_message_; }
@@ -69,6 +86,11 @@ class VulkanContext {
   VkQueue queue_ = VK_NULL_HANDLE;
   std::uint32_t queue_family_ = 0;
   DeviceCaps caps_;
+  PFN_vkSetDebugUtilsObjectNameEXT set_object_name_ = nullptr;
+  PFN_vkCmdBeginDebugUtilsLabelEXT begin_label_ = nullptr;
+  PFN_vkCmdEndDebugUtilsLabelEXT end_label_ = nullptr;
+  PFN_vkGetPipelineExecutablePropertiesKHR executable_properties_ = nullptr;
+  PFN_vkGetPipelineExecutableStatisticsKHR executable_statistics_ = nullptr;
   VkPhysicalDeviceMemoryProperties memory_{};
   std::function<void(const std::string&)> on_validation_message_;
   std::size_t validation_errors_ = 0;

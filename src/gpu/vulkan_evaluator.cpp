@@ -44,7 +44,8 @@ constexpr std::uint32_t kMaxPoolChunks = EW_MAX_POOL_CHUNKS;
 constexpr std::uint32_t kStorageBindings = EW_BINDING_POOL0 + EW_MAX_POOL_CHUNKS;  // particles, points, coarse, pool
 constexpr std::uint32_t kTexelBindings = 1 + kMaxPoolChunks;                       // coarse and pool views
 constexpr std::uint32_t kReduceBindings = RD_BINDINGS;
-constexpr std::uint32_t kQueries = 3;       // before weighting, after weighting, after reduction
+constexpr std::uint32_t kQueries = 4;       // before the points' copy, before weighting, after it, after reduction
+constexpr std::uint32_t kStatQueries = 2;   // pipeline statistics of weighting and of reduction (profiling runs)
 constexpr std::size_t kParticleArrays = 8;  // x y z qw qx qy qz log_weight
 static_assert(EW_BINDING_POOL_VIEW0 == EW_BINDING_COARSE_VIEW + 1 &&
                   EW_BINDINGS == EW_BINDING_POOL_VIEW0 + EW_MAX_POOL_CHUNKS,
@@ -77,6 +78,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                          const Eigen::Quaternionf& reference_rotation) override;
   const UpdateTimings& last_timings() const override { return timings_; }
+  std::vector<ShaderStatistics> shader_statistics() const override;
 
  private:
   ParticleArrays view(int set);
@@ -97,6 +99,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
+  VkQueryPool statistics_ = VK_NULL_HANDLE;  // compute-shader invocations per pass (profiling runs)
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
 
   gpu::Buffer coarse_;
@@ -157,7 +160,18 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
       q.queryType = VK_QUERY_TYPE_TIMESTAMP;
       q.queryCount = kQueries;
       gpu::check(vkCreateQueryPool(dev, &q, nullptr, &queries_), "vkCreateQueryPool");
+      ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, queries_, "timestamps per pass");
     }
+    if (caps.pipeline_statistics) {
+      VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+      q.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS;
+      q.queryCount = kStatQueries;
+      q.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_COMPUTE_SHADER_INVOCATIONS_BIT;
+      gpu::check(vkCreateQueryPool(dev, &q, nullptr, &statistics_), "vkCreateQueryPool");
+      ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, statistics_, "pipeline statistics per pass");
+    }
+    ctx_->name(VK_OBJECT_TYPE_COMMAND_BUFFER, cmd_, "sensor update");
+    ctx_->name(VK_OBJECT_TYPE_FENCE, fence_, "sensor update done");
 
     // The map, uploaded once: the coarse index in one buffer, the block pool split into chunks of a power-of-two
     // number of blocks so that no binding exceeds maxStorageBufferRange (128 MiB on lavapipe).
@@ -183,12 +197,14 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     if (coarse_bytes > max_texels || (block_bytes << chunk_shift_) > max_texels) map_texel_views_ = false;
     const VkBufferUsageFlags map_usage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
     coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, coarse_.handle(), "map coarse index");
     gpu::upload(*ctx_, command_pool_, coarse_, map.coarse_index().data(), coarse_bytes);
     for (std::size_t c = 0; c < chunks; ++c) {
       const std::size_t first = c * blocks_per_chunk;
       const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
       const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
       pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
+      ctx_->name(VK_OBJECT_TYPE_BUFFER, pool_chunks_.back().handle(), "map block pool chunk");
       gpu::upload(*ctx_, command_pool_, pool_chunks_.back(), map.block_pool().data() + first * TsdfMap::kWordsPerBlock,
                   count * block_bytes);
     }
@@ -202,7 +218,7 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
             ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
             : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
         std::vector<VkDescriptorType>(kReduceBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
-        sizeof(gpu::ReducePushConstants), reduce_specialization());
+        sizeof(gpu::ReducePushConstants), reduce_specialization(), "reduce");
     // Created here rather than on first use so that the first update is not slowed by a pipeline compile.
     EndpointModel default_model;
     endpoint_pipeline(default_model, uniform_point_capacity_ > 0);
@@ -254,10 +270,12 @@ void VulkanEvaluator::release() {
   reduce_pipeline_.reset();
   if (descriptor_pool_) vkDestroyDescriptorPool(dev, descriptor_pool_, nullptr);
   if (queries_) vkDestroyQueryPool(dev, queries_, nullptr);
+  if (statistics_) vkDestroyQueryPool(dev, statistics_, nullptr);
   if (fence_) vkDestroyFence(dev, fence_, nullptr);
   if (command_pool_) vkDestroyCommandPool(dev, command_pool_, nullptr);
   descriptor_pool_ = VK_NULL_HANDLE;
   queries_ = VK_NULL_HANDLE;
+  statistics_ = VK_NULL_HANDLE;
   fence_ = VK_NULL_HANDLE;
   command_pool_ = VK_NULL_HANDLE;
   coarse_view_ = {};
@@ -299,8 +317,9 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
         static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1));
     spec[EW_SPEC_MAP_TEXEL_VIEWS] = map_texel_views_ ? 1u : 0u;
     spec[EW_SPEC_BATCH] = kNearestBatch;
-    slot = std::make_unique<gpu::ComputePipeline>(*ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)},
-                                                  bindings, sizeof(gpu::EndpointPushConstants), spec);
+    slot =
+        std::make_unique<gpu::ComputePipeline>(*ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)},
+                                               bindings, sizeof(gpu::EndpointPushConstants), spec, "endpoint_weight");
   }
   return *slot;
 }
@@ -340,6 +359,7 @@ void VulkanEvaluator::grow_particles(std::size_t capacity) {
     }
     grown.flush();
     set = std::move(grown);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, set.handle(), "particles (structure of arrays)");
   }
   capacity_ = capacity;
 }
@@ -354,7 +374,9 @@ void VulkanEvaluator::grow_points(std::size_t capacity) {
   } else {
     points_ = gpu::Buffer(*ctx_, buffer_bytes, gpu::Buffer::Use::kDeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     points_staging_ = gpu::Buffer(*ctx_, bytes, gpu::Buffer::Use::kHostShared);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, points_staging_.handle(), "scan points (staging)");
   }
+  ctx_->name(VK_OBJECT_TYPE_BUFFER, points_.handle(), "scan points");
   point_capacity_ = capacity;
   point_count_ = 0;
 }
@@ -364,6 +386,7 @@ void VulkanEvaluator::grow_records(std::size_t particle_capacity) {
   if (records <= record_capacity_) return;
   for (auto& r : records_) {
     r = gpu::Buffer(*ctx_, records * gpu::kReduceRecordFloats * sizeof(float), gpu::Buffer::Use::kHostShared);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, r.handle(), "reduction records");
   }
   record_capacity_ = records;
 }
@@ -480,21 +503,29 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   gpu::check(vkBeginCommandBuffer(cmd_, &begin), "vkBeginCommandBuffer");
   if (queries_) vkCmdResetQueryPool(cmd_, queries_, 0, kQueries);
+  if (statistics_) vkCmdResetQueryPool(cmd_, statistics_, 0, kStatQueries);
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 0);
   if (points_staging_) {
+    ctx_->begin_label(cmd_, "upload points");
     const VkBufferCopy region{0, 0, point_count_ * 4 * sizeof(float)};
     vkCmdCopyBuffer(cmd_, points_staging_.handle(), points_.handle(), 1, &region);
     barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+    ctx_->end_label(cmd_);
   }
-  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 0);
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TRANSFER_BIT, queries_, 1);
+  ctx_->begin_label(cmd_, "endpoint_weight");
+  if (statistics_) vkCmdBeginQuery(cmd_, statistics_, 0, 0);
   vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.pipeline());
   vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0,
                           nullptr);
   vkCmdPushConstants(cmd_, endpoint.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ep), &ep);
   vkCmdDispatch(cmd_, groups_for(n, kEndpointWorkgroup), 1, 1);
+  if (statistics_) vkCmdEndQuery(cmd_, statistics_, 0);
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
-  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 1);
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 2);
+  ctx_->end_label(cmd_);
 
   const FitConstants fit = fit_constants(model, point_count_);
   gpu::ReducePushConstants rp{};
@@ -503,6 +534,8 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   rp.fit_offset = fit.offset;
   rp.reference =
       glm::vec4(reference_rotation.w(), reference_rotation.x(), reference_rotation.y(), reference_rotation.z());
+  ctx_->begin_label(cmd_, "reduce");
+  if (statistics_) vkCmdBeginQuery(cmd_, statistics_, 1, 0);
   vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, reduce_pipeline_->pipeline());
   std::size_t count = n;
   int out = 0;  // records_[out] receives this level's records
@@ -520,7 +553,9 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
     out = 1 - out;
   }
-  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 2);
+  if (statistics_) vkCmdEndQuery(cmd_, statistics_, 1);
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 3);
+  ctx_->end_label(cmd_);
   // Results and log-weights are read by the host after the fence.
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_PIPELINE_STAGE_HOST_BIT);
@@ -552,11 +587,31 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
                "vkGetQueryPoolResults");
     const std::uint64_t mask = ctx_->caps().timestamp_mask;
     const double ns = ctx_->caps().timestamp_period_ns;
-    timings_.weight_gpu_ms = static_cast<double>((stamps[1] - stamps[0]) & mask) * ns * 1e-6;
-    timings_.reduce_gpu_ms = static_cast<double>((stamps[2] - stamps[1]) & mask) * ns * 1e-6;
+    timings_.transfer_gpu_ms = static_cast<double>((stamps[1] - stamps[0]) & mask) * ns * 1e-6;
+    timings_.weight_gpu_ms = static_cast<double>((stamps[2] - stamps[1]) & mask) * ns * 1e-6;
+    timings_.reduce_gpu_ms = static_cast<double>((stamps[3] - stamps[2]) & mask) * ns * 1e-6;
+  }
+  if (statistics_) {
+    std::uint64_t invocations[kStatQueries];
+    gpu::check(vkGetQueryPoolResults(ctx_->device(), statistics_, 0, kStatQueries, sizeof(invocations), invocations,
+                                     sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+               "vkGetQueryPoolResults");
+    timings_.weight_invocations = invocations[0];
+    timings_.reduce_invocations = invocations[1];
   }
   check_validation();
   return total.summary();
+}
+
+std::vector<ShaderStatistics> VulkanEvaluator::shader_statistics() const {
+  std::vector<ShaderStatistics> out;
+  for (const auto& [key, pipeline] : endpoint_pipelines_) {
+    for (ShaderStatistics& s : ctx_->shader_statistics(pipeline->pipeline(), "endpoint_weight"))
+      out.push_back(std::move(s));
+  }
+  for (ShaderStatistics& s : ctx_->shader_statistics(reduce_pipeline_->pipeline(), "reduce"))
+    out.push_back(std::move(s));
+  return out;
 }
 
 }  // namespace

@@ -13,7 +13,7 @@ int run_bench(int argc, char** argv) {
   Options o(
       "bench",
       "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
-      "[--spread local|global] [--backend cpu,vulkan]",
+      "[--spread local|global] [--backend cpu,vulkan] [--profile] [--loop SECONDS]",
       {
           {"map", "MAP", "", "TSDF map file (tsdf-mcl build-map)"},
           {"dataset", "DIR", "", "dataset with scans and poses.txt (the true pose places the particles)"},
@@ -31,6 +31,12 @@ int run_bench(int argc, char** argv) {
           {"seed", "N", "1", "random seed for the particle placement"},
           {"map_reads", "texel|storage", "texel",
            "vulkan: read the map through texel-buffer views or the storage buffers"},
+          {"profile", "", "",
+           "shader profiling run: per-pass GPU time (transfer, weight, reduce) and invocations, the driver's shader "
+           "statistics, debug names and labels for RenderDoc / Nsight (extra JSON lines, \"profile\": ...)"},
+          {"loop", "SECONDS", "0",
+           "after each backend's measurements keep dispatching the largest count's update this long (for an "
+           "external profiler)"},
       },
       argc, argv, 2);
   if (o.help_requested()) {
@@ -70,6 +76,9 @@ int run_bench(int argc, char** argv) {
   const std::string map_reads = o.text("map_reads");
   if (map_reads != "texel" && map_reads != "storage") throw Error("--map_reads must be texel or storage");
   config.map_texel_views = map_reads == "texel";
+  config.profile = o.flag("profile");
+  config.loop_seconds = o.number("loop");
+  if (!(config.loop_seconds >= 0.0) || config.loop_seconds > 86400.0) throw Error("--loop must lie in [0, 86400] s");
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));

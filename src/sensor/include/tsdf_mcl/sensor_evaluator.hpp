@@ -12,6 +12,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/endpoint_model.hpp"
@@ -72,12 +73,25 @@ struct WeightSummary {
   double fit_sum = 0.0;
 };
 
-// GPU time per dispatch from timestamp queries (NaN where unavailable), and host wall time of the update.
+// GPU time per pass from timestamp queries (NaN where unavailable), and host wall time of the update.
 struct UpdateTimings {
+  double transfer_gpu_ms = std::nan("");  // the points' copy from a staging buffer (discrete GPUs; 0 without one)
   double weight_gpu_ms = std::nan("");
   double reduce_gpu_ms = std::nan("");
   double upload_ms = 0.0;    // points into their buffer
   double evaluate_ms = 0.0;  // submit to results visible on the host (weighting + reduction)
+  // Compute-shader invocations per pass from pipeline-statistics queries (EvaluatorOptions::profile, where the
+  // device has them); 0 otherwise.
+  std::uint64_t weight_invocations = 0;
+  std::uint64_t reduce_invocations = 0;
+};
+
+// The driver's statistics of one compiled shader (VK_KHR_pipeline_executable_properties: registers, spills,
+// instruction counts, named as the driver names them).
+struct ShaderStatistics {
+  std::string pipeline;    // "endpoint_weight", "reduce"
+  std::string executable;  // the driver's name of the compiled stage
+  std::vector<std::pair<std::string, std::string>> values;
 };
 
 class SensorEvaluator {
@@ -101,6 +115,8 @@ class SensorEvaluator {
   virtual WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                                  const Eigen::Quaternionf& reference_rotation) = 0;
   virtual const UpdateTimings& last_timings() const = 0;
+  // With EvaluatorOptions::profile on a driver that reports them; empty otherwise.
+  virtual std::vector<ShaderStatistics> shader_statistics() const { return {}; }
 };
 
 enum class Backend { kAuto, kVulkan, kCpu };
@@ -127,6 +143,10 @@ struct EvaluatorOptions {
   // Vulkan: the largest map binding in bytes (0: the device's maxStorageBufferRange). Larger block pools are split
   // into up to four chunks; tests set a small value to exercise the split on a small map.
   std::uint64_t max_map_binding_bytes = 0;
+  // Vulkan, for shader profiling runs: pipeline-statistics queries per pass (UpdateTimings), the driver's shader
+  // statistics (shader_statistics()), and VK_EXT_debug_utils names on every object and labels on every pass so a
+  // RenderDoc / Nsight capture reads cleanly. Each where the device offers it.
+  bool profile = false;
 };
 
 // One particle's log-weight from the kernel's likelihood (tsdf_mcl/endpoint_kernel.hpp), accumulated in double:
