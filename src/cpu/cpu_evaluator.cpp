@@ -19,8 +19,7 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 }  // namespace
 
 CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads, bool use_simd)
-    : map_(map),
-      map_view_(map),
+    : map_view_(map),
       threads_(threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
       use_avx2_(use_simd && kernel::avx2_available()) {
   if (map.empty()) throw Error("the map is empty");

@@ -93,7 +93,7 @@ std::vector<double> wall_azimuths(const std::vector<Eigen::Vector3f>& normals, c
 }  // namespace
 
 GlobalProposal::GlobalProposal(const TsdfMap& map, const GlobalInitOptions& init, const ProposalOptions& options)
-    : map_(&map), init_(init), options_(options), free_space_(map, init) {
+    : init_(init), options_(options), free_space_(map, init) {
   options_.validate();
   const std::vector<Eigen::Vector3f> normals = map_surface_normals(map);
   map_up_ = refine_up_axis(normals, Eigen::Vector3f::UnitZ());

@@ -184,7 +184,7 @@ bool FreeSpaceSampler::sample_in_run(Rng& rng, Place&& place, Eigen::Vector3f* p
     // The lateral jitter may leave the column: keep only positions that are free where they land.
     const Eigen::Vector3i v = map_->voxel_of(p);
     const std::int32_t q = view.fetch(v.x(), v.y(), v.z());
-    if (q == TsdfMap::kUnknownValue || q <= 0) continue;
+    if (q <= 0) continue;  // occupied, or unknown (kUnknownValue is the most negative value)
     *position = p;
     return true;
   }

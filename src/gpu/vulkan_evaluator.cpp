@@ -92,7 +92,6 @@ class VulkanEvaluator final : public SensorEvaluator {
   void barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
 
   std::unique_ptr<gpu::VulkanContext> ctx_;
-  const TsdfMap& map_;
   kernel::MapView map_view_;
   bool notify_validation_;
   VkCommandPool command_pool_ = VK_NULL_HANDLE;
@@ -130,7 +129,6 @@ class VulkanEvaluator final : public SensorEvaluator {
 
 VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& options)
     : ctx_(std::make_unique<gpu::VulkanContext>(options)),
-      map_(map),
       map_view_(map),
       notify_validation_(!options.on_validation_message),
       map_texel_views_(options.map_texel_views) {

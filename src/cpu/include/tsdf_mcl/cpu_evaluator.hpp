@@ -29,7 +29,6 @@ class CpuEvaluator final : public SensorEvaluator {
   ParticleArrays view(int set);
   void rebuild_tables(const EndpointModel& model);
 
-  const TsdfMap& map_;
   kernel::MapView map_view_;
   int threads_;
   bool use_avx2_;

@@ -76,7 +76,6 @@ class GlobalProposal {
   std::vector<float> headings_for(const GravityCandidate& c, const std::vector<Eigen::Vector3f>& normals) const;
   void draw(std::size_t block, Rng& rng, Eigen::Vector3f* position, Eigen::Quaternionf* rotation) const;
 
-  const TsdfMap* map_;
   GlobalInitOptions init_;
   ProposalOptions options_;
   FreeSpaceSampler free_space_;
