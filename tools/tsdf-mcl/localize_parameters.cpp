@@ -135,8 +135,8 @@ std::vector<OptionSpec> localize_parameter_specs() {
       {"converged_min_updates", "N", std::to_string(f.convergence.min_updates),
        "converged: all of the above for this many consecutive filter updates at one place"},
       {"converged_travel_after_jump", "M", num(f.convergence.travel_after_jump_m),
-       "converged: after the estimate jumped away from a converged track, the new place must hold over this much "
-       "travel first"},
+       "converged: after the estimate jumped away from a place it had converged at or concentrated on, or after a "
+       "wrong lock was found out, the new place must hold over this much travel first"},
       {"inlier_distance", "M", num(f.inlier_distance),
        "a scan point within this distance of a surface is an inlier (the absolute fit measure)"},
       {"recovery_min_inliers", "R", num(f.recovery_min_inliers),
