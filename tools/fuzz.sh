@@ -22,6 +22,21 @@ cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)" --target "${names[@]/#/fuzz_}"
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 status=0
+
+# Whether the crash in a log lies inside libhdf5: every frame above our code is libhdf5's (or libc's memcpy and
+# ASan's interceptor under it), entered from import_reference_h5. libhdf5 trusts corrupt files that far; the
+# program runs the import in a child process (tools/tsdf-mcl/cmd_build_map.cpp), so such a file ends in one error
+# line there (CliMap.BuildMapRejectsBadInput holds one, tests/data/libhdf5_crash_local_heap.h5). Not a finding of
+# ours: the input is kept and the run goes on.
+inside_libhdf5() {
+  awk 'BEGIN {r = 1}
+       /ERROR: AddressSanitizer/ {on = 1; next}
+       !on || !/^ +#[0-9]+ / || /__interceptor_|__asan_|sysdeps\/|libc\.so/ {next}
+       /libhdf5/ {inside = 1; next}
+       {r = !(inside && /import_reference_h5/); exit}
+       END {exit r}' "$1"
+}
+
 for name in "${names[@]}"; do
   corpus=build/asan/fuzz-corpus/$name findings=build/asan/fuzz-findings/$name
   mkdir -p "$corpus" "$findings"
@@ -39,14 +54,28 @@ for name in "${names[@]}"; do
     export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0
   fi
   echo "fuzz.sh: $name for $seconds s"
-  if ! build/asan/fuzz/fuzz_"$name" "$corpus" "fuzz/corpus/$name" -max_total_time="$seconds" -timeout=20 \
-       -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" "${options[@]}" >"$log" 2>&1; then
+  start=$(date +%s) restarts=0 left=$seconds
+  while :; do
+    if build/asan/fuzz/fuzz_"$name" "$corpus" "fuzz/corpus/$name" -max_total_time="$left" -timeout=20 \
+         -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" "${options[@]}" >"$log" 2>&1; then
+      break
+    fi
+    left=$((seconds - ($(date +%s) - start)))
+    if [ "$name" = h5_import ] && inside_libhdf5 "$log"; then
+      restarts=$((restarts + 1))
+      cp "$log" "$log.libhdf5-$restarts"
+      echo "fuzz.sh: $name: libhdf5 crashed inside itself on a fuzzed file (kept in $findings/, log $log.libhdf5-$restarts;" \
+           "the program isolates the import in a child process); going on" >&2
+      [ $left -ge 1 ] && continue  # the time budget bounds the restarts
+      break
+    fi
     echo "fuzz.sh: $name FAILED; see $log and $findings/" >&2
     grep -E "ERROR|SUMMARY|runtime error|deadly|Test unit written" "$log" | head -20 >&2 || true
     status=1
-  fi
+    break
+  done
   # The last status line: executions, coverage (edges) and features.
-  grep -E "^#[0-9]+" "$log" | tail -1 | sed "s/^/fuzz.sh: $name: /"
-  grep -E "stat::number_of_executed_units|stat::peak_rss_mb" "$log" | sed "s/^/fuzz.sh: $name: /"
+  grep -E "^#[0-9]+" "$log" | tail -1 | sed "s/^/fuzz.sh: $name: /" || true
+  grep -E "stat::number_of_executed_units|stat::peak_rss_mb" "$log" | sed "s/^/fuzz.sh: $name: /" || true
 done
 exit $status
