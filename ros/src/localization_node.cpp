@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseArray.h>
@@ -323,11 +324,11 @@ bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vecto
   // Extrinsics are rigid: the latest transform serves every stamp.
   const std::optional<Pose> base_T_cloud = lookup(settings_.base_frame_id, msg.header.frame_id, ros::Time(0));
   if (!base_T_cloud) return false;
-  const PointCloud cloud = cloud_from_msg(msg, "PointCloud2 in frame " + msg.header.frame_id);
+  PointCloud cloud = cloud_from_msg(msg, "PointCloud2 in frame " + msg.header.frame_id);
   const Eigen::Isometry3f t = base_T_cloud->cast<float>();
   for (const Eigen::Vector3f& p : cloud.points) points.push_back(t * p);
   if (primary) {
-    last_sensor_scan_ = cloud.points;
+    last_sensor_scan_ = std::move(cloud.points);  // the cloud is not used after this
     last_base_T_sensor_ = *base_T_cloud;
   }
   return true;
@@ -336,7 +337,8 @@ bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vecto
 void LocalizationNode::process(const sensor_msgs::PointCloud2ConstPtr& primary,
                                const std::vector<sensor_msgs::PointCloud2ConstPtr>& others) {
   const ros::Time stamp = primary->header.stamp;
-  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f>& points = scan_points_;  // reused: no allocation per scan once grown
+  points.clear();
   try {
     if (!add_cloud(*primary, points, true)) {
       ++failed_;

@@ -106,6 +106,7 @@ class LocalizationNode {
   // The filter thread's own.
   // The last primary cloud in its own frame and that frame's extrinsic, for completing a planar /initialpose.
   std::vector<Eigen::Vector3f> last_sensor_scan_;
+  std::vector<Eigen::Vector3f> scan_points_;  // the merged scan in base_frame_id, reused from scan to scan
   Pose last_base_T_sensor_ = Pose::Identity();
   std::size_t processed_ = 0, failed_ = 0, late_ = 0;
   std::optional<ros::Time> last_stamp_;
