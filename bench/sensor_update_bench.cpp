@@ -12,7 +12,9 @@
 #include "reference_cpu_baseline.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/make_evaluator.hpp"
+#include "particle_order.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/subset_first.hpp"
 
 namespace tsdf_mcl::bench {
 namespace {
@@ -81,40 +83,54 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
       EvaluatorOptions options;
       options.backend = parse_backend(backend);
       options.map_texel_views = config.map_texel_views;
+      options.weight_layout = config.weight_layout;
       options.profile = config.profile;
       evaluator = make_evaluator(map, options);
       evaluator->reserve(max_particles, points.size());
       evaluator->set_points(points);
       device = evaluator->device_name();
     }
+    // One sensor update as the filter runs it: the whole scan for every particle, or subset first.
+    SubsetFirstWeighing weighing(config.subset_first);
+    const auto update = [&](SensorEvaluator& e, std::size_t n, const Eigen::Quaternionf& reference) {
+      if (!config.subset_first_weighing) {
+        e.evaluate(n, config.model, reference);
+        return e.last_timings();
+      }
+      UpdateTimings t;
+      weighing.weigh(e, n, points, config.model, reference, &t);
+      return t;
+    };
     for (std::size_t n : config.particle_counts) {
       std::mt19937 rng(config.seed);
       const ParticleArrays particles = evaluator ? evaluator->particles() : reference_particles;
       place_particles(particles, n, map, true_pose, config.spread, rng);
+      // Every backend gets the same particles in the same order (the reference design's included).
+      if (config.spatial_order) sort_spatially(particles, n);
       std::vector<double> host_ms;
       std::vector<double> gpu_ms;
       std::vector<double> pass_ms[3];  // transfer, weight, reduce (profile)
       std::uint64_t invocations[2] = {0, 0};
       for (std::size_t r = 0; r < config.warmup + config.repetitions; ++r) {
         const auto t0 = Clock::now();
+        UpdateTimings t;
         if (evaluator) {
-          evaluator->evaluate(n, config.model, particles.rotation(0));
+          t = update(*evaluator, n, particles.rotation(0));
         } else {
           reference_cpu_weights(map, config.model, particles, n, points);
         }
         const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
         if (r < config.warmup) continue;
         host_ms.push_back(ms);
-        if (evaluator && std::isfinite(evaluator->last_timings().weight_gpu_ms)) {
-          const UpdateTimings& t = evaluator->last_timings();
+        if (evaluator && std::isfinite(t.weight_gpu_ms)) {
           gpu_ms.push_back(t.weight_gpu_ms + t.reduce_gpu_ms);
           pass_ms[0].push_back(t.transfer_gpu_ms);
           pass_ms[1].push_back(t.weight_gpu_ms);
           pass_ms[2].push_back(t.reduce_gpu_ms);
         }
         if (evaluator) {
-          invocations[0] = evaluator->last_timings().weight_invocations;
-          invocations[1] = evaluator->last_timings().reduce_invocations;
+          invocations[0] = t.weight_invocations;
+          invocations[1] = t.reduce_invocations;
         }
       }
       const double med = median(host_ms);
@@ -124,6 +140,10 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"particles", n},
           {"points", points.size()},
           {"spread", config.spread},
+          {"order", config.spatial_order ? "spatial" : "none"},
+          {"weighing", !evaluator || !config.subset_first_weighing        ? "whole"
+                       : weighing.applies(n, points.size(), config.model) ? "subset_first"
+                                                                          : "whole"},
           {"median_ms", med},
           {"min_ms", *std::min_element(host_ms.begin(), host_ms.end())},
           {"gpu_ms", gpu_ms.empty() ? nlohmann::json(nullptr) : nlohmann::json(median(gpu_ms))},
@@ -133,6 +153,9 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
           {"interpolation", config.model.interpolation == Interpolation::kNearest ? "nearest" : "trilinear"},
           {"map_reads", !evaluator || evaluator->map_reads().empty() ? nlohmann::json(nullptr)
                                                                      : nlohmann::json(evaluator->map_reads())},
+          {"weight_layout", !evaluator || evaluator->weight_layout().empty()
+                                ? nlohmann::json(nullptr)
+                                : nlohmann::json(evaluator->weight_layout())},
           {"map", config.map_name},
           {"scan", config.scan_name},
       };
@@ -184,7 +207,7 @@ void run_sensor_update_bench(const TsdfMap& map, const PointCloud& scan, const P
       std::size_t updates = 0;
       double elapsed = 0.0;
       while (elapsed < config.loop_seconds) {
-        evaluator->evaluate(n, config.model, particles.rotation(0));
+        update(*evaluator, n, particles.rotation(0));
         ++updates;
         elapsed = std::chrono::duration<double>(Clock::now() - t0).count();
       }

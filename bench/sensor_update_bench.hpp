@@ -7,6 +7,8 @@
 
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/endpoint_model.hpp"
+#include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/subset_first.hpp"
 #include "tsdf_mcl/tsdf_map.hpp"
 
 namespace tsdf_mcl::bench {
@@ -15,12 +17,20 @@ struct BenchConfig {
   std::vector<std::size_t> particle_counts{1000, 10000, 50000, 100000};
   std::size_t points = 1024;
   std::string spread = "local";  // local: around the scan's true pose; global: uniform over the map box
+  // Particles in Morton order of position (particle_order.hpp); false: in the order they were drawn (as the
+  // filter keeps them).
+  bool spatial_order = false;
+  // The cpu and vulkan backends weigh subset first (subset_first.hpp) where it applies, as the filter does;
+  // false: every particle on the whole scan. The reference design always weighs the whole scan.
+  bool subset_first_weighing = false;
+  SubsetFirstOptions subset_first;
   std::vector<std::string> backends{"cpu", "vulkan"};  // also "reference": the baseline of the reference's CPU design
   std::size_t repetitions = 7;
   std::size_t warmup = 2;
   unsigned seed = 1;
   EndpointModel model;
   bool map_texel_views = true;  // vulkan: read the map through texel views (false: the storage buffers)
+  WeightLayout weight_layout = WeightLayout::kAuto;  // vulkan: EvaluatorOptions::weight_layout
   std::string map_name;
   std::string scan_name;
   // Shader profiling runs: per-pass GPU time and invocations and the driver's shader statistics as extra JSON lines

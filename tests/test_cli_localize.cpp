@@ -273,6 +273,8 @@ TEST(CliLocalize, BadInputGivesOneClearError) {
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --pf_err abc" + o, "--pf_err expects a number");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --resample_method lucky" + o, "resample_method");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --init 1,2,3" + o, "--init expects");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --subset_share 1.5" + o,
+                        "subset_share must lie in (0, 1]");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --start 99" + o, "selects no scan");
   expect_one_line_error(out, base + " --dataset " + f.dataset, "missing -o");
 }
@@ -346,6 +348,15 @@ TEST(CliEvaluate, BadInputGivesOneClearError) {
                         "has no poses.txt");
 }
 
+// bench's output: one JSON object per line.
+std::vector<nlohmann::json> json_lines(const std::string& out) {
+  std::istringstream lines(out);
+  std::string line;
+  std::vector<nlohmann::json> rows;
+  while (std::getline(lines, line)) rows.push_back(nlohmann::json::parse(line));
+  return rows;
+}
+
 // bench: one JSON line per backend and particle count, with the fields docs/architecture.md names.
 TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
   const Fixture& f = fixture();
@@ -355,10 +366,7 @@ TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
   for (const std::string map_reads : {"texel", "storage"}) {
     const CliResult r = run_cli(out, base + " --backend reference,cpu,vulkan --map_reads " + map_reads);
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    std::istringstream lines(r.out);
-    std::string line;
-    std::vector<nlohmann::json> rows;
-    while (std::getline(lines, line)) rows.push_back(nlohmann::json::parse(line));
+    const std::vector<nlohmann::json> rows = json_lines(r.out);
     ASSERT_EQ(rows.size(), 6u) << r.out;
     for (const auto& row : rows) {
       EXPECT_EQ(row["points"], 64);
@@ -366,6 +374,7 @@ TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
       EXPECT_GT(row["evals_per_s"].get<double>(), 0.0);
       if (row["backend"] == "vulkan") {
         EXPECT_EQ(row["map_reads"], map_reads);
+        EXPECT_EQ(row["weight_layout"], "invocation") << "lavapipe is a CPU device";
         EXPECT_FALSE(row["gpu_ms"].is_null()) << "lavapipe has timestamps";
       } else {
         EXPECT_TRUE(row["map_reads"].is_null());
@@ -374,6 +383,30 @@ TEST(CliBench, PrintsOneJsonLinePerBackendAndCount) {
     EXPECT_EQ(rows[0]["backend"], "reference");
     EXPECT_EQ(rows[1]["particles"], 300);
     EXPECT_EQ(rows[5]["backend"], "vulkan");
+  }
+}
+
+// bench --weighing subset_first times the sensor update as the filter weighs large sets (the reference design
+// always weighs the whole scan); --order spatial sorts the particles first. Each line says which it timed.
+TEST(CliBench, SubsetFirstWeighingAndSpatialOrderAreNamedInTheirLines) {
+  const Fixture& f = fixture();
+  TempDir out;
+  const CliResult r = run_cli(out, "bench --map " + f.map + " --dataset " + f.dataset +
+                                       " --scan 1 --particles 1,500 --points 64 --repetitions 1 --warmup 1"
+                                       " --backend reference,cpu,vulkan --weighing subset_first --subset_points 16"
+                                       " --order spatial --spread global --weight_layout subgroup");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<nlohmann::json> rows = json_lines(r.out);
+  ASSERT_EQ(rows.size(), 6u) << r.out;
+  for (const auto& row : rows) {
+    EXPECT_EQ(row["order"], "spatial");
+    if (row["backend"] == "vulkan") {
+      EXPECT_EQ(row["weight_layout"], "subgroup");
+    }
+    // One particle has no share to leave out: it is weighed whole, as are the reference design's.
+    const bool subset = row["backend"] != "reference" && row["particles"] == 500;
+    EXPECT_EQ(row["weighing"], subset ? "subset_first" : "whole") << row.dump();
+    EXPECT_GT(row["median_ms"].get<double>(), 0.0);
   }
 }
 
@@ -386,11 +419,8 @@ TEST(CliBench, ProfileNamesEveryPass) {
                                        " --scan 1 --particles 100,300 --points 64 --repetitions 2 --warmup 1"
                                        " --backend cpu,vulkan --profile --loop 0.3");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  std::istringstream lines(r.out);
-  std::string line;
   std::map<std::string, std::vector<nlohmann::json>> by_kind;
-  while (std::getline(lines, line)) {
-    const nlohmann::json row = nlohmann::json::parse(line);
+  for (const nlohmann::json& row : json_lines(r.out)) {
     by_kind[row.contains("profile") ? row["profile"].get<std::string>() : "measurement"].push_back(row);
   }
   EXPECT_EQ(by_kind["measurement"].size(), 4u);
@@ -427,6 +457,10 @@ TEST(CliBench, BadInputGivesOneClearError) {
   expect_one_line_error(out, base + " --particles 0", "--particles needs positive integers");
   expect_one_line_error(out, base + " --points 0", "--points must be positive");
   expect_one_line_error(out, base + " --loop -1", "--loop must lie in [0, 86400] s");
+  expect_one_line_error(out, base + " --weighing half", "--weighing must be whole or subset_first");
+  expect_one_line_error(out, base + " --weight_layout warp", "--weight_layout must be auto, invocation or subgroup");
+  expect_one_line_error(out, base + " --order random", "--order must be spatial or none");
+  expect_one_line_error(out, base + " --subset_share 0", "subset_share must lie in (0, 1]");
   expect_one_line_error(out, base + " --scan 999", "--scan 999 but the dataset has 24 scans");
   expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset,
                         "missing.tsdf");

@@ -128,6 +128,26 @@ TEST(GlobalLocalization, ConvergesToTheTruePose) {
   EXPECT_LT(error_t(r, r.steps.size() - 1), 0.08);
 }
 
+// Subset-first weighing (the first updates of 20,000 particles take it) is an approximation for the particles
+// it leaves out: without it the filter must localize alike, and with it the same.
+TEST(GlobalLocalization, WholeScanWeighingLocalizesAlike) {
+  FilterParameters p = ground_robot();
+  p.subset_first.points = 0;
+  auto eval = cpu_evaluator(world().map);
+  ParticleFilter filter(world().map, *eval, p, 256);
+  filter.initialize_global();
+  const FilterRun whole = run_filter(filter, range(0, 30));
+  const FilterRun& subset = global_run();
+  ASSERT_EQ(subset.steps[0].particles, 20000u);
+  for (const FilterRun* r : {&whole, &subset}) {
+    for (std::size_t k = 10; k < r->steps.size(); ++k) {
+      EXPECT_TRUE(r->steps[k].estimate.converged) << "step " << k;
+      EXPECT_LT(error_t(*r, k), 0.15) << "step " << k;
+      EXPECT_LT(error_r(*r, k), 3 * kDeg) << "step " << k;
+    }
+  }
+}
+
 TEST(GlobalLocalization, KldShrinksTheParticleSetAfterConvergence) {
   const FilterRun& r = global_run();
   EXPECT_EQ(r.steps[0].particles, 20000u);

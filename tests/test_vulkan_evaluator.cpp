@@ -55,6 +55,7 @@ struct Variant {
   bool uniform_points;   // points through the uniform-buffer view (scans up to 4096 points) or the storage buffer
   bool map_texel_views;  // map through texel-buffer views or the storage buffers
   bool split_pool;       // block pool in three chunks
+  WeightLayout layout = WeightLayout::kInvocationPerParticle;
 };
 
 class VulkanVsCpu : public ::testing::TestWithParam<Variant> {};
@@ -65,8 +66,10 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   options.uniform_points = GetParam().uniform_points;
   options.map_texel_views = GetParam().map_texel_views;
   if (GetParam().split_pool) options.max_map_binding_bytes = three_chunk_binding_bytes(map);
+  options.weight_layout = GetParam().layout;
   auto gpu = make_vulkan(map, options);
   ASSERT_TRUE(gpu);
+  EXPECT_EQ(gpu->weight_layout(), GetParam().layout == WeightLayout::kSubgroupPerParticle ? "subgroup" : "invocation");
   CpuEvaluator cpu(map, 2);
   std::mt19937 rng(7);
   const std::size_t n = 2000;
@@ -96,22 +99,29 @@ TEST_P(VulkanVsCpu, LogWeightsAgreeOnRandomParticles) {
   EXPECT_TRUE(std::isfinite(gpu->last_timings().evaluate_ms));
 }
 
-INSTANTIATE_TEST_SUITE_P(AllForms, VulkanVsCpu,
-                         ::testing::Values(Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, false},
-                                           Variant{Likelihood::kProduct, Interpolation::kNearest, false, false, false},
-                                           Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, true},
-                                           Variant{Likelihood::kProduct, Interpolation::kNearest, true, false, true},
-                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, true, false},
-                                           Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, false, true},
-                                           Variant{Likelihood::kSum, Interpolation::kNearest, true, false, false},
-                                           Variant{Likelihood::kSum, Interpolation::kTrilinear, false, true, true}),
-                         [](const ::testing::TestParamInfo<Variant>& p) {
-                           return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
-                                  (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear") +
-                                  (p.param.uniform_points ? "_uniform_points" : "_storage_points") +
-                                  (p.param.map_texel_views ? "_texel_map" : "_storage_map") +
-                                  (p.param.split_pool ? "_split_pool" : "");
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    AllForms, VulkanVsCpu,
+    ::testing::Values(
+        Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, false},
+        Variant{Likelihood::kProduct, Interpolation::kNearest, false, false, false},
+        Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, true},
+        Variant{Likelihood::kProduct, Interpolation::kNearest, true, false, true},
+        Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, true, false},
+        Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, false, true},
+        Variant{Likelihood::kSum, Interpolation::kNearest, true, false, false},
+        Variant{Likelihood::kSum, Interpolation::kTrilinear, false, true, true},
+        // A subgroup per particle, the layout GPUs get (lavapipe: 8 lanes).
+        Variant{Likelihood::kProduct, Interpolation::kNearest, true, true, false, WeightLayout::kSubgroupPerParticle},
+        Variant{Likelihood::kProduct, Interpolation::kNearest, false, false, true, WeightLayout::kSubgroupPerParticle},
+        Variant{Likelihood::kProduct, Interpolation::kTrilinear, true, true, true, WeightLayout::kSubgroupPerParticle},
+        Variant{Likelihood::kSum, Interpolation::kNearest, true, true, false, WeightLayout::kSubgroupPerParticle}),
+    [](const ::testing::TestParamInfo<Variant>& p) {
+      return std::string(p.param.likelihood == Likelihood::kProduct ? "product_" : "sum_") +
+             (p.param.interpolation == Interpolation::kNearest ? "nearest" : "trilinear") +
+             (p.param.uniform_points ? "_uniform_points" : "_storage_points") +
+             (p.param.map_texel_views ? "_texel_map" : "_storage_map") + (p.param.split_pool ? "_split_pool" : "") +
+             (p.param.layout == WeightLayout::kSubgroupPerParticle ? "_subgroup_per_particle" : "");
+    });
 
 // reduce.comp at sizes around workgroup and subgroup boundaries, in both variants: its result must equal the CPU
 // reduction of the very log-weights the GPU computed.

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/motion_model.hpp"
 #include "tsdf_mcl/pose.hpp"
 #include "tsdf_mcl/random.hpp"
 
@@ -55,10 +56,18 @@ std::size_t KldSampler::required_count(const ParticleArrays& particles, const do
   std::fill(keys_.begin(), keys_.end(), 0u);
   bin_mass_.clear();
   double total = 0.0;
+  // The bins' keys (Euler angles a particle) in parallel; the table in particle order, sequential, so the bins'
+  // numbering and sums do not depend on the threads.
+  particle_keys_.resize(n);
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    particle_keys_[i] =
+        pose_bin_key(particles.position(i), particles.rotation(i), params_.bin_xy, params_.bin_z, params_.bin_angle);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (!(weights[i] > 0.0)) continue;
-    const std::uint64_t key =
-        pose_bin_key(particles.position(i), particles.rotation(i), params_.bin_xy, params_.bin_z, params_.bin_angle);
+    const std::uint64_t key = particle_keys_[i];
     std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
     while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
     if (keys_[s] == 0) {

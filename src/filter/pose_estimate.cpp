@@ -144,9 +144,14 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   cell_weight_.clear();
   particle_cell_.assign(n, kNoCell);
   double total = 0.0;
+  for (std::size_t i = 0; i < n; ++i) total += w[i];
+  // Each particle's cell (atan2 and a rotation matrix a particle: in parallel), then the cells in particle order
+  // into the table (sequential: the cells' numbering, and so every tie below, does not depend on the threads).
+  particle_cells_.resize(n);
   const float inv_xyz = 1.0f / options_.cluster_bin_xyz;
-  for (std::size_t i = 0; i < n; ++i) {
-    total += w[i];
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
+    const auto i = static_cast<std::size_t>(k);
     if (!(w[i] > threshold)) continue;
     const Eigen::Vector3f pos = p.position(i);
     int up_axis = 0;
@@ -154,9 +159,13 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     rotation_cell(p.rotation(i), &up_axis, &yaw);
     int yc = static_cast<int>(std::floor((yaw + kTwoPi / 2) / kTwoPi * yaw_cells_));
     yc = ((yc % yaw_cells_) + yaw_cells_) % yaw_cells_;
-    const Cell c{static_cast<int>(std::floor(pos.x() * inv_xyz)), static_cast<int>(std::floor(pos.y() * inv_xyz)),
-                 static_cast<int>(std::floor(pos.z() * inv_xyz)), yc, up_axis};
-    const std::uint32_t cell = lookup(c, true);
+    particle_cells_[i] =
+        Cell{static_cast<int>(std::floor(pos.x() * inv_xyz)), static_cast<int>(std::floor(pos.y() * inv_xyz)),
+             static_cast<int>(std::floor(pos.z() * inv_xyz)), yc, up_axis};
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(w[i] > threshold)) continue;
+    const std::uint32_t cell = lookup(particle_cells_[i], true);
     particle_cell_[i] = cell;
     cell_weight_[cell] += w[i];
   }
@@ -168,12 +177,22 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   const auto cells = static_cast<std::uint32_t>(cells_.size());
   parent_.resize(cells);
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = c;
-  for (std::uint32_t c = 0; c < cells; ++c) {
+  // The neighbours' lookups read the table only: in parallel. The unions after them in any order give the same
+  // components, each rooted at its lowest cell.
+  neighbours_.resize(4 * static_cast<std::size_t>(cells));
+#pragma omp parallel for schedule(static) if (cells >= kParallelParticles)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(cells); ++k) {
+    const auto c = static_cast<std::size_t>(k);
     for (int axis = 0; axis < 4; ++axis) {
       Cell nb = cells_[c];
       nb[axis] += 1;
       nb[3] = nb[3] % yaw_cells_;
-      const std::uint32_t other = lookup(nb, false);
+      neighbours_[4 * c + static_cast<std::size_t>(axis)] = lookup(nb, false);
+    }
+  }
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    for (std::size_t axis = 0; axis < 4; ++axis) {
+      const std::uint32_t other = neighbours_[4 * static_cast<std::size_t>(c) + axis];
       if (other == kNoCell) continue;
       const std::uint32_t ra = find(c);
       const std::uint32_t rb = find(other);
@@ -198,7 +217,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
                     });
   root_rank_.assign(cells, -1);
   for (std::size_t r = 0; r < k; ++r) root_rank_[roots[r]] = static_cast<std::int32_t>(r);
-  for (std::size_t r = 0; r < k; ++r) e.hypotheses.push_back(describe(p, w, n, static_cast<std::int32_t>(r), total));
+  e.hypotheses = describe(p, w, n, k, total);
 
   const Hypothesis& top = e.hypotheses.front();
   e.covariance = top.covariance;
@@ -216,38 +235,50 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   return e;
 }
 
-Hypothesis PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::int32_t rank,
-                                   double total) const {
-  Hypothesis h;
-  double weight = 0.0;
-  Eigen::Vector3d position_sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
+                                                double total) const {
+  // Two passes over the particles for all k hypotheses at once (means, then covariances); each hypothesis's
+  // sums add its particles in index order.
+  std::vector<Hypothesis> h(k);
+  std::vector<double> weight(k, 0.0);
+  std::vector<Eigen::Vector3d> position_sum(k, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Matrix4d> m(k, Eigen::Matrix4d::Zero());
   for (std::size_t i = 0; i < n; ++i) {
-    if (hypothesis_of(i) != rank) continue;
+    const std::int32_t r = hypothesis_of(i);
+    if (r < 0) continue;
+    const auto rank = static_cast<std::size_t>(r);
     const Eigen::Quaternionf q = p.rotation(i);
     const Eigen::Vector4d v(q.w(), q.x(), q.y(), q.z());
-    m += w[i] * v * v.transpose();
-    position_sum += w[i] * p.position(i).cast<double>();
-    weight += w[i];
-    ++h.particles;
+    m[rank] += w[i] * v * v.transpose();
+    position_sum[rank] += w[i] * p.position(i).cast<double>();
+    weight[rank] += w[i];
+    ++h[rank].particles;
   }
-  const Eigen::Vector3d mean_position = position_sum / weight;
-  const Eigen::Quaterniond mean_rotation = markley_mean(m);
-  const Eigen::Quaterniond inverse_mean = mean_rotation.conjugate();
-  Matrix6d cov = Matrix6d::Zero();
+  std::vector<Eigen::Vector3d> mean_position(k);
+  std::vector<Eigen::Quaterniond> inverse_mean(k);
+  for (std::size_t r = 0; r < k; ++r) {
+    mean_position[r] = position_sum[r] / weight[r];
+    const Eigen::Quaterniond mean_rotation = markley_mean(m[r]);
+    inverse_mean[r] = mean_rotation.conjugate();
+    h[r].pose.linear() = mean_rotation.toRotationMatrix();
+    h[r].pose.translation() = mean_position[r];
+  }
+  std::vector<Matrix6d> cov(k, Matrix6d::Zero());
   for (std::size_t i = 0; i < n; ++i) {
-    if (hypothesis_of(i) != rank) continue;
+    const std::int32_t r = hypothesis_of(i);
+    if (r < 0) continue;
+    const auto rank = static_cast<std::size_t>(r);
     Eigen::Matrix<double, 6, 1> d;
-    d.head<3>() = p.position(i).cast<double>() - mean_position;
-    d.tail<3>() = quaternion_log(inverse_mean * p.rotation(i).cast<double>());
-    cov += w[i] * d * d.transpose();
+    d.head<3>() = p.position(i).cast<double>() - mean_position[rank];
+    d.tail<3>() = quaternion_log(inverse_mean[rank] * p.rotation(i).cast<double>());
+    cov[rank] += w[i] * d * d.transpose();
   }
-  h.covariance = cov / weight;
-  h.weight = weight / total;
-  h.std_position = largest_std(h.covariance.topLeftCorner<3, 3>());
-  h.std_rotation = largest_std(h.covariance.bottomRightCorner<3, 3>());
-  h.pose.linear() = mean_rotation.toRotationMatrix();
-  h.pose.translation() = mean_position;
+  for (std::size_t r = 0; r < k; ++r) {
+    h[r].covariance = cov[r] / weight[r];
+    h[r].weight = weight[r] / total;
+    h[r].std_position = largest_std(h[r].covariance.topLeftCorner<3, 3>());
+    h[r].std_rotation = largest_std(h[r].covariance.bottomRightCorner<3, 3>());
+  }
   return h;
 }
 

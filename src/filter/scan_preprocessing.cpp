@@ -5,33 +5,10 @@
 #include <string>
 
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/morton.hpp"
 #include "tsdf_mcl/random.hpp"
 
 namespace tsdf_mcl {
-namespace {
-
-// Spreads the low 21 bits of v so that two zero bits follow each one.
-std::uint64_t spread_bits(std::uint64_t v) {
-  v &= 0x1FFFFFull;
-  v = (v | (v << 32)) & 0x1F00000000FFFFull;
-  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
-  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
-  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
-  v = (v | (v << 2)) & 0x1249249249249249ull;
-  return v;
-}
-
-std::uint64_t morton(const Eigen::Vector3f& p, float inv_voxel) {
-  constexpr std::int64_t kOffset = 1 << 20;  // cells -2^20 .. 2^20-1 per axis: ±100 km at 0.1 m
-  std::uint64_t key = 0;
-  for (int a = 0; a < 3; ++a) {
-    const auto cell = static_cast<std::int64_t>(std::floor(p[a] * inv_voxel)) + kOffset;
-    key |= spread_bits(static_cast<std::uint64_t>(std::clamp<std::int64_t>(cell, 0, 2 * kOffset - 1))) << a;
-  }
-  return key;
-}
-
-}  // namespace
 
 void ScanPreprocessing::validate() const {
   if (!(laser_min_range >= 0.0f) || !std::isfinite(laser_min_range)) {
@@ -59,7 +36,7 @@ const std::vector<Eigen::Vector3f>& ScanPreprocessor::process(const std::vector<
     if (!p.allFinite()) throw Error("scan point " + std::to_string(i) + " is not finite");
     const float r2 = p.squaredNorm();
     if (r2 < min2 || r2 > max2) continue;
-    keyed_.emplace_back(thin ? morton(p, inv_voxel) : 0u, static_cast<std::uint32_t>(i));
+    keyed_.emplace_back(thin ? morton_code(p, inv_voxel) : 0u, static_cast<std::uint32_t>(i));
   }
   const std::size_t in_range = keyed_.size();
   if (thin) {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "buffer.hpp"
 #include "compute_pipeline.hpp"
@@ -23,6 +24,9 @@ namespace {
 const std::uint32_t kEndpointSpirv[] = {
 #include "endpoint_weight.inc"
 };
+const std::uint32_t kEndpointSubgroupSpirv[] = {
+#include "endpoint_weight_subgroup.inc"
+};
 const std::uint32_t kReduceSubgroupSpirv[] = {
 #include "reduce_subgroup.inc"
 };
@@ -33,7 +37,8 @@ const std::uint32_t kReduceSharedSpirv[] = {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-constexpr std::uint32_t kEndpointWorkgroup = 64;
+constexpr std::uint32_t kEndpointWorkgroup = 64;         // invocation per particle
+constexpr std::uint32_t kSubgroupLayoutWorkgroup = 256;  // subgroup per particle: 256 / subgroup size particles
 constexpr std::uint32_t kReduceWorkgroup = 256;
 constexpr std::uint32_t kReduceItems = 4;
 constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
@@ -43,12 +48,14 @@ constexpr std::uint32_t kEndpointBindings = EW_BINDINGS;
 constexpr std::uint32_t kMaxPoolChunks = EW_MAX_POOL_CHUNKS;
 constexpr std::uint32_t kStorageBindings = EW_BINDING_POOL0 + EW_MAX_POOL_CHUNKS;  // particles, points, coarse, pool
 constexpr std::uint32_t kTexelBindings = 1 + kMaxPoolChunks;                       // coarse and pool views
+constexpr std::uint32_t kTableBindings = 1;                                        // the nearest lookup's terms
 constexpr std::uint32_t kReduceBindings = RD_BINDINGS;
 constexpr std::uint32_t kQueries = 4;       // before the points' copy, before weighting, after it, after reduction
 constexpr std::uint32_t kStatQueries = 2;   // pipeline statistics of weighting and of reduction (profiling runs)
 constexpr std::size_t kParticleArrays = 8;  // x y z qw qx qy qz log_weight
 static_assert(EW_BINDING_POOL_VIEW0 == EW_BINDING_COARSE_VIEW + 1 &&
-                  EW_BINDINGS == EW_BINDING_POOL_VIEW0 + EW_MAX_POOL_CHUNKS,
+                  EW_BINDING_TABLE_VIEW == EW_BINDING_POOL_VIEW0 + EW_MAX_POOL_CHUNKS &&
+                  EW_BINDINGS == EW_BINDING_TABLE_VIEW + 1,
               "the texel views follow each other: coarse, then the pool chunks");
 
 std::vector<std::uint32_t> reduce_specialization() {
@@ -70,6 +77,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::string backend() const override { return "vulkan"; }
   std::string device_name() const override { return ctx_->caps().name; }
   std::string map_reads() const override { return map_texel_views_ ? "texel" : "storage"; }
+  std::string weight_layout() const override { return subgroup_layout_ ? "subgroup" : "invocation"; }
   void reserve(std::size_t particles, std::size_t points) override;
   ParticleArrays particles() override { return view(active_); }
   ParticleArrays spare_particles() override { return view(1 - active_); }
@@ -83,6 +91,7 @@ class VulkanEvaluator final : public SensorEvaluator {
  private:
   ParticleArrays view(int set);
   const gpu::ComputePipeline& endpoint_pipeline(const EndpointModel& model, bool uniform_points);
+  std::uint32_t endpoint_groups(std::size_t n) const;
   void grow_particles(std::size_t capacity);
   void grow_points(std::size_t capacity);
   void grow_records(std::size_t particle_capacity);
@@ -104,8 +113,14 @@ class VulkanEvaluator final : public SensorEvaluator {
   gpu::Buffer coarse_;
   std::vector<gpu::Buffer> pool_chunks_;
   bool map_texel_views_;
+  bool subgroup_layout_ = false;                 // endpoint_weight: a subgroup per particle
+  std::uint32_t subgroup_layout_workgroup_ = 0;  // its workgroup: a multiple of the subgroup size
   gpu::TexelView coarse_view_;
   std::vector<gpu::TexelView> pool_views_;
+  // Nearest lookup: each quantized distance's term under the current model (kernel::likelihood_table).
+  gpu::Buffer table_;
+  gpu::TexelView table_view_;
+  std::optional<EndpointModel> table_model_;
   std::uint32_t chunk_shift_ = 0;
   gpu::Buffer particle_sets_[2];
   std::size_t capacity_ = 0;
@@ -141,6 +156,25 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
   if (options.uniform_points) {
     uniform_point_capacity_ = std::min<std::uint64_t>(caps.max_uniform_buffer_range, 65536) / (4 * sizeof(float));
   }
+  // A subgroup per particle on GPUs, an invocation per particle on CPU devices (EvaluatorOptions::weight_layout).
+  const bool gpu_device = caps.type == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU ||
+                          caps.type == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU ||
+                          caps.type == VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU;
+  switch (options.weight_layout) {
+    case WeightLayout::kAuto:
+      subgroup_layout_ = gpu_device && caps.subgroup_arithmetic;
+      break;
+    case WeightLayout::kSubgroupPerParticle:
+      if (!caps.subgroup_arithmetic) throw Error(caps.name + " has no subgroup arithmetic in compute shaders");
+      subgroup_layout_ = true;
+      break;
+    case WeightLayout::kInvocationPerParticle:
+      subgroup_layout_ = false;
+      break;
+  }
+  subgroup_layout_workgroup_ =
+      std::max(kSubgroupLayoutWorkgroup, caps.subgroup_size) / caps.subgroup_size * caps.subgroup_size;
+  if (subgroup_layout_ && subgroup_layout_workgroup_ > caps.max_workgroup_size_x) subgroup_layout_ = false;
   try {
     VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -209,6 +243,9 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     // The views are bound even when the storage bindings are read (the layout has both): they cost nothing.
     coarse_view_ = gpu::TexelView(*ctx_, coarse_);
     for (const gpu::Buffer& chunk : pool_chunks_) pool_views_.emplace_back(*ctx_, chunk);
+    table_ = gpu::Buffer(*ctx_, kernel::kTableSize * sizeof(float), gpu::Buffer::Use::kDeviceLocal, map_usage);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, table_.handle(), "nearest lookup terms");
+    table_view_ = gpu::TexelView(*ctx_, table_);
 
     reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
         *ctx_,
@@ -224,7 +261,7 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
     const VkDescriptorPoolSize sizes[3] = {
         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * kStorageBindings + 6 * kReduceBindings},
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * kTexelBindings}};
+        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * (kTexelBindings + kTableBindings)}};
     VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dp.maxSets = 8;
     dp.poolSizeCount = 3;
@@ -278,6 +315,8 @@ void VulkanEvaluator::release() {
   command_pool_ = VK_NULL_HANDLE;
   coarse_view_ = {};
   pool_views_.clear();
+  table_view_ = {};
+  table_ = {};
   coarse_ = {};
   pool_chunks_.clear();
   for (auto& b : particle_sets_) b = {};
@@ -295,17 +334,18 @@ void VulkanEvaluator::check_validation() const {
 const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointModel& model, bool uniform_points) {
   const auto interpolation = static_cast<std::uint32_t>(model.interpolation);
   const auto likelihood = static_cast<std::uint32_t>(model.likelihood);
-  const std::uint32_t uniform = uniform_points ? 1u : 0u;
+  // The subgroup layout's lanes read different points: from the storage buffer, never the uniform view.
+  const std::uint32_t uniform = uniform_points && !subgroup_layout_ ? 1u : 0u;
   const std::uint32_t key = (interpolation * 2 + likelihood) * 2 + uniform;
   auto& slot = endpoint_pipelines_[key];
   if (!slot) {
     std::vector<VkDescriptorType> bindings(kEndpointBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     bindings[EW_BINDING_UNIFORM_POINTS] = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-    for (std::uint32_t b = 0; b < kTexelBindings; ++b)
+    for (std::uint32_t b = 0; b < kTexelBindings + kTableBindings; ++b)
       bindings[EW_BINDING_COARSE_VIEW + b] = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
     // Entry i of the vector is the constant with id i (compute_pipeline.hpp).
     std::vector<std::uint32_t> spec(EW_SPEC_COUNT);
-    spec[EW_SPEC_WORKGROUP] = kEndpointWorkgroup;
+    spec[EW_SPEC_WORKGROUP] = subgroup_layout_ ? subgroup_layout_workgroup_ : kEndpointWorkgroup;
     spec[EW_SPEC_INTERPOLATION] = interpolation;
     spec[EW_SPEC_LIKELIHOOD] = likelihood;
     spec[EW_SPEC_CHUNK_SHIFT] = chunk_shift_;
@@ -315,11 +355,21 @@ const gpu::ComputePipeline& VulkanEvaluator::endpoint_pipeline(const EndpointMod
         static_cast<std::uint32_t>(std::max<std::size_t>(uniform_point_capacity_, 1));
     spec[EW_SPEC_MAP_TEXEL_VIEWS] = map_texel_views_ ? 1u : 0u;
     spec[EW_SPEC_BATCH] = kNearestBatch;
-    slot =
-        std::make_unique<gpu::ComputePipeline>(*ctx_, gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)},
-                                               bindings, sizeof(gpu::EndpointPushConstants), spec, "endpoint_weight");
+    const gpu::ShaderCode code = subgroup_layout_
+                                     ? gpu::ShaderCode{kEndpointSubgroupSpirv, std::size(kEndpointSubgroupSpirv)}
+                                     : gpu::ShaderCode{kEndpointSpirv, std::size(kEndpointSpirv)};
+    slot = std::make_unique<gpu::ComputePipeline>(*ctx_, code, bindings, sizeof(gpu::EndpointPushConstants), spec,
+                                                  "endpoint_weight");
   }
   return *slot;
+}
+
+// A subgroup per particle: workgroup / subgroupSize particles a workgroup. SPIR-V before 1.6 without
+// VK_PIPELINE_SHADER_STAGE_CREATE_ALLOW_VARYING_SUBGROUP_SIZE_BIT runs compute shaders in subgroups of exactly
+// subgroupSize invocations, so the shader's gl_NumSubgroups is this count.
+std::uint32_t VulkanEvaluator::endpoint_groups(std::size_t n) const {
+  if (!subgroup_layout_) return groups_for(n, kEndpointWorkgroup);
+  return groups_for(n, subgroup_layout_workgroup_ / ctx_->caps().subgroup_size);
 }
 
 ParticleArrays VulkanEvaluator::view(int set) {
@@ -329,7 +379,7 @@ ParticleArrays VulkanEvaluator::view(int set) {
 void VulkanEvaluator::reserve(std::size_t particles, std::size_t points) {
   bool changed = false;
   if (particles > capacity_) {
-    if (groups_for(particles, kEndpointWorkgroup) > ctx_->caps().max_workgroup_count_x) {
+    if (endpoint_groups(particles) > ctx_->caps().max_workgroup_count_x) {
       throw Error("too many particles for one dispatch on " + ctx_->caps().name);
     }
     grow_particles(std::max(particles, capacity_ + capacity_ / 2));
@@ -427,6 +477,13 @@ void VulkanEvaluator::write_descriptor_sets() {
       w.pTexelBufferView = &v.handle();
       writes.push_back(w);
     }
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = endpoint_sets_[s];
+    w.dstBinding = EW_BINDING_TABLE_VIEW;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+    w.pTexelBufferView = &table_view_.handle();
+    writes.push_back(w);
     bind(reduce_sets_[s][0], RD_BINDING_PARTICLES, particle_sets_[s]);
     bind(reduce_sets_[s][0], RD_BINDING_RECORDS_IN, records_[1]);
     bind(reduce_sets_[s][0], RD_BINDING_RECORDS_OUT, records_[0]);
@@ -475,6 +532,12 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   const auto t0 = Clock::now();
   const gpu::ComputePipeline& endpoint = endpoint_pipeline(model, point_count_ <= uniform_point_capacity_);
   if (n == 0) return {};
+  if (model.interpolation == Interpolation::kNearest && !(table_model_ && kernel::same_table(model, *table_model_))) {
+    std::vector<float> table;
+    kernel::likelihood_table(model, map_view_.quant_step, table);
+    gpu::upload(*ctx_, command_pool_, table_, table.data(), table.size() * sizeof(float));
+    table_model_ = model;
+  }
 
   gpu::EndpointPushConstants ep{};
   ep.particle_count = static_cast<std::uint32_t>(n);
@@ -518,7 +581,7 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0,
                           nullptr);
   vkCmdPushConstants(cmd_, endpoint.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ep), &ep);
-  vkCmdDispatch(cmd_, groups_for(n, kEndpointWorkgroup), 1, 1);
+  vkCmdDispatch(cmd_, endpoint_groups(n), 1, 1);
   if (statistics_) vkCmdEndQuery(cmd_, statistics_, 0);
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);

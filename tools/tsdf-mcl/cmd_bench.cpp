@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <sstream>
 
 #include "commands.hpp"
 #include "options.hpp"
@@ -21,6 +22,20 @@ int run_bench(int argc, char** argv) {
           {"particles", "LIST", "1000,10000,50000,100000", "particle counts, comma-separated"},
           {"points", "M", "1024", "scan points per particle (spread over the whole scan)"},
           {"spread", "local|global", "local", "particles around the true pose (0.5 m, 10 deg) or uniform over the map"},
+          {"order", "none|spatial", "none",
+           "particle order: as drawn (as the filter keeps them) or sorted into Morton order of position"},
+          {"weighing", "whole|subset_first", "whole",
+           "cpu, vulkan: every particle on the whole scan, or subset first as the filter weighs large sets "
+           "(--subset_points, --subset_share)"},
+          {"subset_points", "K", std::to_string(SubsetFirstOptions{}.points),
+           "--weighing subset_first: points of the first pass"},
+          {"subset_share", "S",
+           [] {
+             std::ostringstream share;
+             share << SubsetFirstOptions{}.share;
+             return share.str();
+           }(),
+           "--weighing subset_first: share of the particles weighed on the whole scan"},
           {"backend", "LIST", "cpu,vulkan",
            "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
           {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
@@ -31,6 +46,9 @@ int run_bench(int argc, char** argv) {
           {"seed", "N", "1", "random seed for the particle placement"},
           {"map_reads", "texel|storage", "texel",
            "vulkan: read the map through texel-buffer views or the storage buffers"},
+          {"weight_layout", "auto|invocation|subgroup", "auto",
+           "vulkan: an invocation or a subgroup per particle in the weighting shader (auto: subgroup on GPUs, "
+           "invocation on CPU devices such as lavapipe)"},
           {"profile", "", "",
            "shader profiling run: per-pass GPU time (transfer, weight, reduce) and invocations, the driver's shader "
            "statistics, debug names and labels for RenderDoc / Nsight (extra JSON lines, \"profile\": ...)"},
@@ -57,6 +75,16 @@ int run_bench(int argc, char** argv) {
   config.points = o.count("points", limits::kMaxBeams);
   if (config.points == 0) throw Error("--points must be positive");
   config.spread = o.text("spread");
+  const std::string order = o.text("order");
+  if (order != "spatial" && order != "none") throw Error("--order must be spatial or none");
+  config.spatial_order = order == "spatial";
+  const std::string weighing = o.text("weighing");
+  if (weighing != "whole" && weighing != "subset_first") throw Error("--weighing must be whole or subset_first");
+  config.subset_first_weighing = weighing == "subset_first";
+  config.subset_first.points = o.count("subset_points", limits::kMaxBeams);
+  config.subset_first.share = o.number("subset_share");
+  config.subset_first.min_particles = 1;  // the bench states the particle counts itself
+  config.subset_first.validate();
   config.backends = o.list("backend");
   for (const auto& b : config.backends) {
     if (b != "cpu" && b != "vulkan" && b != "reference") throw Error("unknown backend '" + b + "'");
@@ -76,6 +104,12 @@ int run_bench(int argc, char** argv) {
   const std::string map_reads = o.text("map_reads");
   if (map_reads != "texel" && map_reads != "storage") throw Error("--map_reads must be texel or storage");
   config.map_texel_views = map_reads == "texel";
+  const std::string layout = o.text("weight_layout");
+  if (layout != "auto" && layout != "invocation" && layout != "subgroup")
+    throw Error("--weight_layout must be auto, invocation or subgroup");
+  config.weight_layout = layout == "auto"         ? WeightLayout::kAuto
+                         : layout == "invocation" ? WeightLayout::kInvocationPerParticle
+                                                  : WeightLayout::kSubgroupPerParticle;
   config.profile = o.flag("profile");
   config.loop_seconds = o.number("loop");
   if (!(config.loop_seconds >= 0.0) || config.loop_seconds > 86400.0) throw Error("--loop must lie in [0, 86400] s");

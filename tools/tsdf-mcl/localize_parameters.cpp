@@ -68,6 +68,13 @@ std::vector<OptionSpec> localize_parameter_specs() {
        "miss, p_rand (miss, the reference implementation)"},
       {"min_ess_ratio", "R", num(f.min_ess_ratio),
        "adaptive tempering: keep at least R * particles effective particles per update (0 = off)"},
+      {"subset_points", "K", std::to_string(f.subset_first.points),
+       "subset first: weigh every particle on K of the scan's points first and only the best subset_share on all "
+       "of them, in sets of at least subset_min_particles (0 = off)"},
+      {"subset_share", "S", num(f.subset_first.share),
+       "subset first: share of the particles weighed on the whole scan"},
+      {"subset_min_particles", "N", std::to_string(f.subset_first.min_particles),
+       "subset first: only in sets of at least N particles"},
       {"laser_min_range", "M", num(s.laser_min_range), "drop scan points closer than this"},
       {"laser_max_range", "M", num(s.laser_max_range), "drop scan points farther than this"},
       {"scan_voxel", "M", num(s.voxel_size), "thin the scan to one point per voxel of this size (0 = off)"},
@@ -206,6 +213,9 @@ FilterParameters filter_parameters(const Options& o) {
   if (unknown_space != "free" && unknown_space != "miss") throw Error("--unknown_space must be free or miss");
   f.unknown_as_free = unknown_space == "free";
   f.min_ess_ratio = o.number("min_ess_ratio");
+  f.subset_first.points = o.count("subset_points", limits::kMaxBeams);
+  f.subset_first.share = o.number("subset_share");
+  f.subset_first.min_particles = o.count("subset_min_particles");
 
   f.motion.type = parse_motion_model(o.text("motion_model"));
   f.motion.alpha1 = o.number("alpha1");

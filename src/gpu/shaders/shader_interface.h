@@ -14,7 +14,8 @@
 #define EW_BINDING_UNIFORM_POINTS 7  // the points buffer again, as a uniform buffer
 #define EW_BINDING_COARSE_VIEW 8     // texel-buffer views of the coarse index and the pool chunks: 8..12
 #define EW_BINDING_POOL_VIEW0 9
-#define EW_BINDINGS 13
+#define EW_BINDING_TABLE_VIEW 13  // nearest lookup: per quantized distance, the point's term (float bits)
+#define EW_BINDINGS 14
 
 // endpoint_weight.comp: specialization constants.
 #define EW_SPEC_WORKGROUP 0

@@ -48,6 +48,7 @@ class KldSampler {
   std::vector<std::uint64_t> keys_;  // open addressing, 0 = empty
   std::vector<std::uint32_t> slot_bin_;
   std::vector<double> bin_mass_;
+  std::vector<std::uint64_t> particle_keys_;  // each particle's bin key (scratch)
 };
 
 // Bin key of a pose on a grid of the given sizes (positions and roll/pitch/yaw).

@@ -25,6 +25,7 @@
 #include "tsdf_mcl/recovery.hpp"
 #include "tsdf_mcl/resampling.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/subset_first.hpp"
 
 namespace tsdf_mcl {
 
@@ -95,6 +96,9 @@ struct FilterParameters {
   // log-likelihoods are scaled down until they do not. Keeps a peaky likelihood from collapsing the set onto a
   // few lucky particles. 0 = off.
   double min_ess_ratio = 0.1;
+  // Subset first (subset_first.hpp): sets of at least subset_first.min_particles are weighed on
+  // subset_first.points of the scan first, and only the best subset_first.share on the whole scan.
+  SubsetFirstOptions subset_first;
   MotionParameters motion;
   double update_min_d = 0.1;  // m
   double update_min_a = 0.1;  // rad
@@ -270,6 +274,7 @@ class ParticleFilter {
   std::vector<std::int32_t> group_;       // hypothesis of each particle; hypotheses.size() = none of them
   std::vector<double> group_share_;       // share of each group after the between-hypothesis tempering
   std::vector<std::uint32_t> ancestors_;
+  SubsetFirstWeighing subset_first_;
 
   // Motion bookkeeping at the last filter update.
   bool has_update_ = false;

@@ -94,14 +94,18 @@ class PoseEstimator {
 
  private:
   std::uint32_t find(std::uint32_t a);
-  Hypothesis describe(const ParticleArrays& p, const double* w, std::size_t n, std::int32_t rank, double total) const;
+  // Hypotheses 0..k-1 (the heaviest components, ranked) from their particles.
+  std::vector<Hypothesis> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
+                                   double total) const;
   PoseEstimateOptions options_;
   std::vector<std::uint64_t> keys_;  // hash table of cells, 0 = empty
   std::vector<std::uint32_t> slot_cell_;
-  std::vector<Cell> cells_;            // cell coordinates
-  std::vector<std::uint32_t> parent_;  // union-find over cells
+  std::vector<Cell> cells_;                // cell coordinates
+  std::vector<std::uint32_t> parent_;      // union-find over cells
+  std::vector<std::uint32_t> neighbours_;  // each cell's neighbour one step up x, y, z and yaw, or kNoCell
   std::vector<double> cell_weight_;
   std::vector<double> root_weight_;
+  std::vector<Cell> particle_cells_;  // each particle's cell coordinates (scratch)
   std::vector<std::uint32_t> particle_cell_;
   std::vector<std::int32_t> root_rank_;  // hypothesis index of each component root, -1 beyond max_hypotheses
   int yaw_cells_ = 12;

@@ -57,9 +57,9 @@ struct ModelConstants {
 
 constexpr std::size_t kTableSize = 65536;  // one entry per int16 quantized distance, index q + 32768
 
-// Per quantized distance: log p (product form) or p (sum form), the unknown value included. Nearest lookups on
-// the CPU read this table instead of computing exp and log per point. (The shader computes them: on GPUs they
-// are hardware instructions, and on lavapipe a table gather costs more than the polynomials.)
+// Per quantized distance: log p (product form) or p (sum form), the unknown value included. Nearest lookups read
+// this table instead of computing exp and log per point, on the CPU and in the shader (a texel-buffer view of the
+// same values), so both backends add the same terms.
 inline void likelihood_table(const EndpointModel& model, float quant_step, std::vector<float>& table) {
   const ModelConstants k(model);
   table.resize(kTableSize);

@@ -102,6 +102,8 @@ class SensorEvaluator {
   // How the map is read: "texel" or "storage" (Vulkan; texel views fall back to storage reads where the map
   // exceeds the device's texel-buffer limit), "" where the question does not apply (CPU).
   virtual std::string map_reads() const { return ""; }
+  // Vulkan: "invocation" or "subgroup" per particle (EvaluatorOptions::weight_layout); empty elsewhere.
+  virtual std::string weight_layout() const { return ""; }
 
   // Grows buffers if needed (never shrinks); invalidates previously returned ParticleArrays when it grows.
   virtual void reserve(std::size_t particles, std::size_t points) = 0;
@@ -122,6 +124,8 @@ class SensorEvaluator {
 enum class Backend { kAuto, kVulkan, kCpu };
 Backend parse_backend(const std::string& name);  // "auto" | "vulkan" | "cpu"; throws Error otherwise
 
+enum class WeightLayout { kAuto, kInvocationPerParticle, kSubgroupPerParticle };
+
 struct EvaluatorOptions {
   Backend backend = Backend::kAuto;
   // Vulkan: enable VK_LAYER_KHRONOS_validation; every message goes to on_validation_message
@@ -140,6 +144,10 @@ struct EvaluatorOptions {
   // gathers texel fetches in SIMD but loops over the lanes for storage-buffer loads); false reads the storage
   // buffers directly (both paths are tested).
   bool map_texel_views = true;
+  // Vulkan: how endpoint_weight.comp lays particles over invocations. kAuto: a subgroup per particle (its lanes
+  // strided over the points) on GPUs with subgroup arithmetic, an invocation per particle on CPU devices
+  // (lavapipe), whose SIMD lanes are the invocations. Both layouts are tested on every device.
+  WeightLayout weight_layout = WeightLayout::kAuto;
   // Vulkan: the largest map binding in bytes (0: the device's maxStorageBufferRange). Larger block pools are split
   // into up to four chunks; tests set a small value to exercise the split on a small map.
   std::uint64_t max_map_binding_bytes = 0;
