@@ -458,7 +458,7 @@ TEST(CliBench, BadInputGivesOneClearError) {
   expect_one_line_error(out, base + " --points 0", "--points must be positive");
   expect_one_line_error(out, base + " --loop -1", "--loop must lie in [0, 86400] s");
   expect_one_line_error(out, base + " --weighing half", "--weighing must be whole or subset_first");
-  expect_one_line_error(out, base + " --weight_layout warp", "--weight_layout must be auto, invocation or subgroup");
+  expect_one_line_error(out, base + " --weight_layout warp", "unknown weight_layout 'warp'");
   expect_one_line_error(out, base + " --order random", "--order must be spatial or none");
   expect_one_line_error(out, base + " --subset_share 0", "subset_share must lie in (0, 1]");
   expect_one_line_error(out, base + " --scan 999", "--scan 999 but the dataset has 24 scans");

@@ -155,6 +155,50 @@ INSTANTIATE_TEST_SUITE_P(SubgroupAndShared, VulkanReduction, ::testing::Values(t
                            return p.param ? "subgroup" : "shared_memory";
                          });
 
+// Both layouts of endpoint_weight.comp on a tracking-like set (particles within 0.3 m and 10 degrees of one pose,
+// many reading the same blocks) of odd counts, around the subgroup layout's workgroup of particles, and after the
+// model changes (the nearest lookup's table follows it).
+TEST(VulkanEvaluator, BothLayoutsAgreeWithTheCpuOnAClusteredSetOfOddCounts) {
+  const TsdfMap map = test::make_room_map();
+  for (WeightLayout layout : {WeightLayout::kInvocationPerParticle, WeightLayout::kSubgroupPerParticle}) {
+    EvaluatorOptions options = vulkan_options();
+    options.weight_layout = layout;
+    auto gpu = make_vulkan(map, options);
+    ASSERT_TRUE(gpu);
+    CpuEvaluator cpu(map, 2);
+    std::mt19937 rng(5);
+    std::normal_distribution<float> g(0.0f, 1.0f);
+    const std::size_t most = 1001;
+    gpu->reserve(most, 333);
+    cpu.reserve(most, 333);
+    const Eigen::Quaternionf heading(Eigen::AngleAxisf(0.7f, Eigen::Vector3f::UnitZ()));
+    for (std::size_t i = 0; i < most; ++i) {
+      const Eigen::Vector3f d = 0.3f * Eigen::Vector3f(g(rng), g(rng), 0.2f * g(rng));
+      const Eigen::Vector3f w = 0.1f * Eigen::Vector3f(g(rng), g(rng), g(rng));
+      const Eigen::Quaternionf q = heading * Eigen::Quaternionf(Eigen::AngleAxisf(w.norm(), w.normalized()));
+      cpu.particles().set(i, Eigen::Vector3f(0.5f, 0.2f, 1.2f) + d, q.normalized());
+    }
+    copy_particles(cpu.particles(), gpu->particles(), most);
+    const auto scan = test::random_scan(333, rng);
+    gpu->set_points(scan);
+    cpu.set_points(scan);
+    for (float sigma : {0.1f, 0.25f}) {
+      EndpointModel model;
+      model.sigma_hit = sigma;
+      for (std::size_t n : {1u, 31u, 33u, 1001u}) {
+        SCOPED_TRACE(std::to_string(n) + " particles, sigma " + std::to_string(sigma) + ", " + gpu->weight_layout());
+        gpu->evaluate(n, model, heading);
+        cpu.evaluate(n, model, heading);
+        for (std::size_t i = 0; i < n; ++i) {
+          ASSERT_NEAR(gpu->particles().log_weight[i], cpu.particles().log_weight[i],
+                      1e-4 * std::abs(cpu.particles().log_weight[i]) + 1e-5)
+              << "particle " << i;
+        }
+      }
+    }
+  }
+}
+
 TEST(VulkanEvaluator, GrowingKeepsParticlesAndSwapUsesTheOtherSet) {
   const TsdfMap map = test::make_room_map();
   auto gpu = make_vulkan(map);

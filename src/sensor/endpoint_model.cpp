@@ -15,6 +15,13 @@ Backend parse_backend(const std::string& name) {
   throw Error("unknown backend '" + name + "' (auto, vulkan or cpu)");
 }
 
+WeightLayout parse_weight_layout(const std::string& name) {
+  if (name == "auto") return WeightLayout::kAuto;
+  if (name == "invocation") return WeightLayout::kInvocationPerParticle;
+  if (name == "subgroup") return WeightLayout::kSubgroupPerParticle;
+  throw Error("unknown weight_layout '" + name + "' (auto, invocation or subgroup)");
+}
+
 void EndpointModel::validate() const {
   auto bad = [](const std::string& what) { throw Error("sensor model: " + what); };
   if (!(sigma_hit > 0.0f) || !std::isfinite(sigma_hit)) bad("sigma_hit must be positive");

@@ -104,12 +104,7 @@ int run_bench(int argc, char** argv) {
   const std::string map_reads = o.text("map_reads");
   if (map_reads != "texel" && map_reads != "storage") throw Error("--map_reads must be texel or storage");
   config.map_texel_views = map_reads == "texel";
-  const std::string layout = o.text("weight_layout");
-  if (layout != "auto" && layout != "invocation" && layout != "subgroup")
-    throw Error("--weight_layout must be auto, invocation or subgroup");
-  config.weight_layout = layout == "auto"         ? WeightLayout::kAuto
-                         : layout == "invocation" ? WeightLayout::kInvocationPerParticle
-                                                  : WeightLayout::kSubgroupPerParticle;
+  config.weight_layout = parse_weight_layout(o.text("weight_layout"));
   config.profile = o.flag("profile");
   config.loop_seconds = o.number("loop");
   if (!(config.loop_seconds >= 0.0) || config.loop_seconds > 86400.0) throw Error("--loop must lie in [0, 86400] s");

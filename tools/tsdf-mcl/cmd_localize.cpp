@@ -223,6 +223,7 @@ int run_localize(int argc, char** argv) {
   report["command"] = "localize";
   report["backend"] = localizer.evaluator().backend();
   report["device"] = localizer.evaluator().device_name();
+  if (!localizer.evaluator().weight_layout().empty()) report["weight_layout"] = localizer.evaluator().weight_layout();
   report["backend_note"] = localizer.backend_note();
   report["map"] = {{"file", map_file}, {"voxel_size", map.voxel_size()}, {"truncation", map.truncation()}};
   report["dataset"] = {{"dir", dataset.dir().string()}, {"scans", dataset.size()}, {"selected", scans.size()}};

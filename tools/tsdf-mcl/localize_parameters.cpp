@@ -31,6 +31,9 @@ std::vector<OptionSpec> localize_parameter_specs() {
       {"particles", "N", std::to_string(f.initial_particles), "particles of the initialization (global or local)"},
       {"backend", "NAME", "auto", "sensor update on auto (Vulkan if a device works, else CPU), vulkan or cpu"},
       {"cpu_threads", "N", "0", "threads of the CPU backend (0 = all)"},
+      {"weight_layout", "NAME", "auto",
+       "vulkan: auto (a subgroup per particle on GPUs, an invocation per particle on CPU devices such as lavapipe), "
+       "invocation or subgroup"},
       {"seed", "N", "0", "random seed; results are reproducible for a seed and backend"},
       {"ignore_imu", "", "",
        "do not use the dataset's IMU, imu.txt or a bag's --imu_topic (gravity for the global search, docs/filter.md)"},
@@ -312,6 +315,7 @@ LocalizerOptions localizer_options(const Options& o) {
   lo.use_imu = !o.flag("ignore_imu");
   lo.evaluator.backend = parse_backend(o.text("backend"));
   lo.evaluator.cpu_threads = static_cast<int>(o.count("cpu_threads", limits::kMaxThreads));
+  lo.evaluator.weight_layout = parse_weight_layout(o.text("weight_layout"));
   return lo;
 }
 

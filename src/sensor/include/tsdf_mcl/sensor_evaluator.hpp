@@ -125,6 +125,8 @@ enum class Backend { kAuto, kVulkan, kCpu };
 Backend parse_backend(const std::string& name);  // "auto" | "vulkan" | "cpu"; throws Error otherwise
 
 enum class WeightLayout { kAuto, kInvocationPerParticle, kSubgroupPerParticle };
+// "auto" | "invocation" | "subgroup"; throws Error otherwise.
+WeightLayout parse_weight_layout(const std::string& name);
 
 struct EvaluatorOptions {
   Backend backend = Backend::kAuto;
