@@ -61,7 +61,7 @@ class TexelView {
 };
 
 // Copies host data into a buffer: directly when it is mapped, else through a temporary staging buffer and a
-// one-off command buffer (only at set-up, never per update).
+// one-off command buffer (at set-up, and when the sensor model changes: the filter's searches use a wider one).
 void upload(const VulkanContext& ctx, VkCommandPool pool, const Buffer& dst, const void* data, VkDeviceSize bytes);
 
 }  // namespace tsdf_mcl::gpu

@@ -56,7 +56,7 @@ constexpr std::size_t kParticleArrays = 8;  // x y z qw qx qy qz log_weight
 static_assert(EW_BINDING_POOL_VIEW0 == EW_BINDING_COARSE_VIEW + 1 &&
                   EW_BINDING_TABLE_VIEW == EW_BINDING_POOL_VIEW0 + EW_MAX_POOL_CHUNKS &&
                   EW_BINDINGS == EW_BINDING_TABLE_VIEW + 1,
-              "the texel views follow each other: coarse, then the pool chunks");
+              "the texel views follow each other: coarse, the pool chunks, the nearest lookup's table");
 
 std::vector<std::uint32_t> reduce_specialization() {
   std::vector<std::uint32_t> spec(RD_SPEC_COUNT);  // entry i is the constant with id i
