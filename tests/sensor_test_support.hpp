@@ -1,12 +1,38 @@
 #pragma once
 // Shared fixtures for sensor-update tests: an analytic TSDF scene and random particles / scans.
+#include <gtest/gtest.h>
+
+#include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
+#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/make_evaluator.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
 #include "tsdf_mcl/tsdf_map.hpp"
 
 namespace tsdf_mcl::test {
+
+// The Vulkan backend with the validation layers on: every validation message fails the test.
+inline EvaluatorOptions vulkan_options() {
+  EvaluatorOptions o;
+  o.backend = Backend::kVulkan;
+  o.validation = true;
+  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
+  return o;
+}
+
+// A Vulkan evaluator, or a test failure (and null) where no device works.
+inline std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map,
+                                                    const EvaluatorOptions& options = vulkan_options()) {
+  try {
+    return make_evaluator(map, options);
+  } catch (const Error& e) {
+    ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
+    return nullptr;
+  }
+}
 
 // A 6 x 4 x 3 m box room (inside positive) with a pillar, exact signed distances in the truncation band and
 // free blocks in the middle; some blocks left unknown so lookups hit all three kinds of coarse entries.

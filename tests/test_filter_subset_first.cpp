@@ -8,7 +8,6 @@
 #include "sensor_test_support.hpp"
 #include "tsdf_mcl/cpu_evaluator.hpp"
 #include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/make_evaluator.hpp"
 #include "tsdf_mcl/subset_first.hpp"
 
 namespace tsdf_mcl {
@@ -126,16 +125,8 @@ TEST(SubsetFirst, SmallSetsAndTheSummedFormAreWeighedWhole) {
 
 TEST(SubsetFirst, VulkanAgreesWithTheCpu) {
   const Scene s;
-  EvaluatorOptions options;
-  options.backend = Backend::kVulkan;
-  options.validation = true;
-  options.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
-  std::unique_ptr<SensorEvaluator> gpu;
-  try {
-    gpu = make_evaluator(s.map, options);
-  } catch (const Error& e) {
-    FAIL() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
-  }
+  const std::unique_ptr<SensorEvaluator> gpu = test::make_vulkan(s.map);
+  ASSERT_TRUE(gpu);
   CpuEvaluator cpu(s.map, 2);
   s.place(*gpu);
   s.place(cpu);

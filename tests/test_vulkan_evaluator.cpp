@@ -11,22 +11,8 @@
 namespace tsdf_mcl {
 namespace {
 
-EvaluatorOptions vulkan_options() {
-  EvaluatorOptions o;
-  o.backend = Backend::kVulkan;
-  o.validation = true;
-  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
-  return o;
-}
-
-std::unique_ptr<SensorEvaluator> make_vulkan(const TsdfMap& map, const EvaluatorOptions& options = vulkan_options()) {
-  try {
-    return make_evaluator(map, options);
-  } catch (const Error& e) {
-    ADD_FAILURE() << "no Vulkan device (tests need lavapipe: mesa-vulkan-drivers): " << e.what();
-    return nullptr;
-  }
-}
+using test::make_vulkan;
+using test::vulkan_options;
 
 // A binding cap that splits the map's block pool into three chunks (a power of two of blocks each), as a map
 // beyond maxStorageBufferRange would be.

@@ -7,9 +7,8 @@
 
 #include "tsdf_mcl/cpu_evaluator.hpp"
 #include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/make_evaluator.hpp"
 #include "tsdf_mcl/map_builder.hpp"
+#include "sensor_test_support.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -27,16 +26,8 @@ TEST(VulkanRealScan, WeightsAgreeWithCpuOnBalmRealworld) {
   std::vector<Eigen::Vector3f> points;
   for (std::size_t i = 0; i < 1024; ++i) points.push_back(scan.points[i * scan.size() / 1024]);
 
-  EvaluatorOptions o;
-  o.backend = Backend::kVulkan;
-  o.validation = true;
-  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << "Vulkan validation: " << m; };
-  std::unique_ptr<SensorEvaluator> gpu;
-  try {
-    gpu = make_evaluator(map, o);
-  } catch (const Error& e) {
-    FAIL() << "no Vulkan device (tests need lavapipe): " << e.what();
-  }
+  const std::unique_ptr<SensorEvaluator> gpu = test::make_vulkan(map);
+  ASSERT_TRUE(gpu);
   CpuEvaluator cpu(map, 2);
   const std::size_t n = 3000;
   gpu->reserve(n, points.size());
