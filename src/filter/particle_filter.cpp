@@ -319,8 +319,11 @@ void ParticleFilter::search(std::size_t candidates, std::size_t keep, const std:
   }
 }
 
-void ParticleFilter::initialize_local(const Pose& pose) {
-  sample_local(evaluator_.particles(), params_.initial_particles, pose, params_.local_init, params_.seed, step_);
+void ParticleFilter::initialize_local(const Pose& pose) { initialize_local(pose, params_.local_init); }
+
+void ParticleFilter::initialize_local(const Pose& pose, const LocalInitSpread& spread) {
+  spread.validate();
+  sample_local(evaluator_.particles(), params_.initial_particles, pose, spread, params_.seed, step_);
   ++step_;
   start(params_.initial_particles);
   estimate_.pose = pose;

@@ -38,9 +38,11 @@ void Localizer::add_imu(const ImuSample& sample) {
   while (!imu_.empty() && imu_.front().time < sample.time - kImuKeep) imu_.pop_front();
 }
 
-void Localizer::reset_to(const Pose& pose) {
+void Localizer::reset_to(const Pose& pose) { reset_to(pose, options_.filter.local_init); }
+
+void Localizer::reset_to(const Pose& pose, const LocalInitSpread& spread) {
   const auto t0 = Clock::now();
-  filter_->initialize_local(pose);
+  filter_->initialize_local(pose, spread);
   pending_global_ = false;
   InitializationRecord r;
   r.global = false;

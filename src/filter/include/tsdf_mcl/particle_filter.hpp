@@ -194,6 +194,8 @@ class ParticleFilter {
   // the same scan before thinning, for its up direction and floor height.
   void initialize_global(const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras);
   void initialize_local(const Pose& world_T_sensor);
+  // ... with another spread than params().local_init (an initial pose given with its covariance).
+  void initialize_local(const Pose& world_T_sensor, const LocalInitSpread& spread);
 
   // One scan: `points` in the sensor frame (preprocessed, non-empty, finite); `odometry` = odom_T_sensor
   // at the scan (required by the odometry motion model, ignored otherwise). `extras` guide recovery's

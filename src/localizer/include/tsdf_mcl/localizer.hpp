@@ -92,6 +92,8 @@ class Localizer {
 
   // Particles around `pose` now (local initialization), as an operator's "initial pose".
   void reset_to(const Pose& world_T_sensor);
+  // ... spread by `spread` instead of the options' (an initial pose given with its covariance).
+  void reset_to(const Pose& world_T_sensor, const LocalInitSpread& spread);
   // A global search from the next scan on, as after start-up without an initial pose.
   void reset_global();
   // The next scan is a filter update even if the platform has not moved (nav2's request_nomotion_update).
