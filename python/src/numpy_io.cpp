@@ -26,7 +26,10 @@ py::array_t<double> doubles_from(const py::handle& obj, const char* name, std::i
   }
   bool ok = a.ndim() == static_cast<py::ssize_t>(shape.size());
   py::ssize_t d = 0;
-  for (const py::ssize_t s : shape) ok = ok && (s < 0 || a.shape(d++) == s);
+  for (const py::ssize_t s : shape) {
+    ok = ok && (s < 0 || a.shape(d) == s);
+    ++d;
+  }
   if (!ok) throw BadArgument(std::string(name) + " must be " + expected + ", got shape " + shape_of(a));
   const double* v = a.data();
   for (py::ssize_t i = 0; i < a.size(); ++i) {
@@ -159,7 +162,7 @@ py::array_t<double> poses_array(const std::vector<Pose>& poses) {
 py::array_t<float> points_array(std::vector<Eigen::Vector3f>&& points) {
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
   const auto count = static_cast<py::ssize_t>(points.size());
-  if (count == 0) return py::array_t<float>({py::ssize_t{0}, py::ssize_t{3}});
+  if (count == 0) return py::array_t<float>(std::vector<py::ssize_t>{0, 3});
   auto* owned = new std::vector<Eigen::Vector3f>(std::move(points));
   py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<Eigen::Vector3f>*>(p); });
   return py::array_t<float>({count, py::ssize_t{3}}, {py::ssize_t{3 * sizeof(float)}, py::ssize_t{sizeof(float)}},

@@ -1,0 +1,77 @@
+"""Localization from Python gives the CLI's run, estimate for estimate, and the CLI's metrics."""
+import json
+
+import numpy as np
+
+import tsdf_mcl
+from conftest import PARAMS, cli_args, run
+
+
+def localize_python(scene, params=PARAMS):
+    loc = tsdf_mcl.Localizer(scene["map"], params)
+    results = [loc.process(points, odom, stamp) for stamp, points, odom in tsdf_mcl.read_dataset(scene["dataset"])]
+    return loc, results
+
+
+def test_same_run_as_the_cli(scene, cli, tmp_path):
+    out = tmp_path / "run"
+    run(cli, "localize", "--map", scene["map_file"], "--dataset", scene["dataset"], *cli_args(PARAMS), "-o", str(out))
+    report = json.loads((out / "report.json").read_text())
+    loc, results = localize_python(scene)
+    assert loc.backend == "cpu"
+    assert len(results) == len(report["scans"]) == 16
+    for r, s in zip(results, report["scans"]):
+        # Bit for bit where report.json holds the full double (translation, weights, counts); the quaternion is
+        # Eigen's conversion of the same rotation.
+        assert r.time == s["time"]
+        e = s["estimate"]
+        assert tuple(r.estimate[:3, 3]) == (e["x"], e["y"], e["z"])
+        assert r.converged == s["converged"]
+        assert r.mode_weight == s["mode_weight"]
+        assert r.particles == s["particles"]
+        assert r.ess == s["ess"]
+        assert r.points["used"] == s["points"]["used"]
+    # The CLI's metrics for its trajectory and for the module's are the same, and the run converged.
+    cli_metrics = json.loads(run(cli, "evaluate", "--estimate", str(out / "trajectory.tum"), "--dataset",
+                                 scene["dataset"]).stdout)
+    m = tsdf_mcl.evaluate([r.time for r in results], np.stack([r.estimate for r in results]),
+                          tsdf_mcl.read_dataset(scene["dataset"]), converged=[r.converged for r in results])
+    assert m["converged"] and cli_metrics["converged"]
+    assert m["convergence"]["estimate_index"] == cli_metrics["convergence"]["estimate_index"]
+    assert m["localized_fraction"] == cli_metrics["localized_fraction"]
+    for key in ("ate_rmse_m", "rotation_rmse_deg", "max_translation_error_m"):
+        # trajectory.tum holds micrometres; the module's estimates are exact.
+        assert abs(m["after_convergence"][key] - cli_metrics["after_convergence"][key]) < 1e-4, key
+    assert m["after_convergence"]["ate_rmse_m"] < 0.1
+    assert m["false_convergence"]["false_claims"] == cli_metrics["false_convergence"]["false_claims"] == 0
+    assert results[-1].state == "converged"
+    assert results[-1].hypotheses[0].weight > 0.5
+    summary = loc.summary()
+    assert summary["scans"] == 16 and summary["converged"]
+
+
+def test_parameter_file_gives_the_same_run(scene, tmp_path):
+    yaml = tmp_path / "params.yaml"
+    yaml.write_text("".join("%s: %s\n" % (k, "[%s]" % ", ".join(map(str, v)) if isinstance(v, tuple) else v)
+                            for k, v in PARAMS.items()))
+    _, from_dict = localize_python(scene)
+    loc = tsdf_mcl.Localizer(scene["map"], str(yaml))
+    ds = tsdf_mcl.read_dataset(scene["dataset"], count=4)
+    for (stamp, points, odom), expected in zip(ds, from_dict):
+        assert np.array_equal(loc.process(points, odom, stamp).estimate, expected.estimate)
+
+
+def test_init_pose_tracks_from_a_given_pose(scene):
+    params = dict(PARAMS, particles=1000, max_particles=1000)
+    loc = tsdf_mcl.Localizer(scene["map"], params, backend="cpu")
+    truth = scene["truth"]
+    start = truth[0].copy()
+    start[:2, 3] += (0.15, -0.1)
+    loc.init_pose(start, np.diag([0.04, 0.04, 0.01, 0.001, 0.001, 0.01]))
+    positions, orientations, weights = loc.particles()
+    assert positions.shape == (1000, 3) and orientations.shape == (1000, 4) and weights.shape == (1000,)
+    assert positions.dtype == np.float32 and abs(weights.sum() - 1.0) < 1e-9
+    assert np.abs(positions[:, :2] - start[:2, 3]).std(axis=0).max() < 0.4  # the spread asked for, not 0.5 m
+    for (stamp, points, odom), t in zip(tsdf_mcl.read_dataset(scene["dataset"], count=8), truth):
+        r = loc.process(points, odom, stamp)
+    assert np.linalg.norm(r.estimate[:3, 3] - t[:3, 3]) < 0.1
