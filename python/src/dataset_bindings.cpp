@@ -54,7 +54,8 @@ PyDataset select(std::shared_ptr<const Dataset> dataset, std::size_t start, std:
 
 py::array_t<double> selected_times(const PyDataset& d) {
   py::array_t<double> t(static_cast<py::ssize_t>(d.indices.size()));
-  for (std::size_t k = 0; k < d.indices.size(); ++k) t.mutable_at(static_cast<py::ssize_t>(k)) = d.dataset->time(d.indices[k]);
+  for (std::size_t k = 0; k < d.indices.size(); ++k)
+    t.mutable_at(static_cast<py::ssize_t>(k)) = d.dataset->time(d.indices[k]);
   return t;
 }
 
@@ -90,11 +91,10 @@ py::dict metrics_dict(const TrajectoryMetrics& m, const MetricsOptions& mo) {
     const PoseError& first = m.errors[m.convergence_index];
     j["convergence"] = py::dict(py::arg("estimate_index") = m.convergence_index, py::arg("scan") = first.truth_index,
                                 py::arg("time_s") = m.convergence_time);
-    j["after_convergence"] = py::dict(
-        py::arg("scans") = m.converged_count, py::arg("ate_rmse_m") = m.ate_rmse,
-        py::arg("rotation_rmse_deg") = m.rotation_rmse * kDeg,
-        py::arg("max_translation_error_m") = m.max_translation_error,
-        py::arg("max_rotation_error_deg") = m.max_rotation_error * kDeg);
+    j["after_convergence"] = py::dict(py::arg("scans") = m.converged_count, py::arg("ate_rmse_m") = m.ate_rmse,
+                                      py::arg("rotation_rmse_deg") = m.rotation_rmse * kDeg,
+                                      py::arg("max_translation_error_m") = m.max_translation_error,
+                                      py::arg("max_rotation_error_deg") = m.max_rotation_error * kDeg);
   }
   j["false_convergence"] = py::none();
   if (m.has_claims) {
@@ -201,9 +201,11 @@ void register_dataset(py::module_& m) {
              return scan_tuple(d, static_cast<std::size_t>(k));
            })
       .def("__iter__",
-           [](const std::shared_ptr<PyDataset>& d) { return DatasetIterator{d, 0}; })
-      .def_property_readonly("indices", [](const PyDataset& d) { return d.indices; },
-                             "each selected scan's index in the whole dataset")
+           [](const std::shared_ptr<PyDataset>& d) {
+             return DatasetIterator{d, 0};
+           })
+      .def_property_readonly(
+          "indices", [](const PyDataset& d) { return d.indices; }, "each selected scan's index in the whole dataset")
       .def_property_readonly("times", &selected_times, "stamps of the selected scans (s)")
       .def_property_readonly(
           "poses", [](const PyDataset& d) { return selected_poses(d, false); },
@@ -247,8 +249,8 @@ void register_dataset(py::module_& m) {
         return select(std::move(dataset), start, stride, count);
       },
       py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = "odom", py::arg("base_frame") = "base_link",
-      py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "", py::arg("imu_topic") = "",
-      py::arg("start") = 0, py::arg("stride") = 1, py::arg("count") = 0,
+      py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "", py::arg("imu_topic") = "", py::arg("start") = 0,
+      py::arg("stride") = 1, py::arg("count") = 0,
       "A ROS 1 bag as a dataset (docs/bags.md): the PointCloud2 scans of points_topic, odometry from tf or "
       "odom_topic, ground truth and IMU from their topics.");
   m.attr("bag_support") = Dataset::bag_support();

@@ -62,7 +62,8 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   out.updated = s.updated;
   out.resampled = s.resampled;
   out.converged = e.converged;
-  out.estimate = {e.pose, e.covariance, e.mode_weight, e.std_position, e.std_rotation, e.inlier_ratio, e.mode_particles};
+  out.estimate = {e.pose,         e.covariance,   e.mode_weight,   e.std_position,
+                  e.std_rotation, e.inlier_ratio, e.mode_particles};
   for (const Hypothesis& h : e.hypotheses) out.hypotheses.push_back(hypothesis_of(h));
   out.particles = s.particles;
   out.next_particles = s.next_particles;
@@ -73,10 +74,11 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
                 {"thinned", r.points.thinned},
                 {"used", r.points.output}};
   const StepTimings& t = s.timings;
-  out.timings = {{"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},      {"upload_ms", t.upload_ms},
-                 {"weight_ms", t.weight_ms},         {"weight_gpu_ms", t.weight_gpu_ms}, {"reduce_gpu_ms", t.reduce_gpu_ms},
-                 {"reduce_ms", t.reduce_ms},         {"resample_ms", t.resample_ms},  {"update_ms", t.total_ms},
-                 {"process_ms", process_ms}};
+  out.timings = {{"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},
+                 {"upload_ms", t.upload_ms},         {"weight_ms", t.weight_ms},
+                 {"weight_gpu_ms", t.weight_gpu_ms}, {"reduce_gpu_ms", t.reduce_gpu_ms},
+                 {"reduce_ms", t.reduce_ms},         {"resample_ms", t.resample_ms},
+                 {"update_ms", t.total_ms},          {"process_ms", process_ms}};
   return out;
 }
 
@@ -217,7 +219,8 @@ class PyLocalizer {
 
 void register_results(py::module_& m) {
   py::class_<PyHypothesis>(m, "Hypothesis", "A mode of the belief")
-      .def_property_readonly("pose", [](const PyHypothesis& h) { return matrix_array(h.pose); }, "4x4 world_T_sensor")
+      .def_property_readonly(
+          "pose", [](const PyHypothesis& h) { return matrix_array(h.pose); }, "4x4 world_T_sensor")
       .def_property_readonly(
           "covariance", [](const PyHypothesis& h) { return matrix_array(h.covariance); },
           "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
@@ -239,10 +242,11 @@ void register_results(py::module_& m) {
       .def_readonly("converged", &PyResult::converged)
       .def_readonly("updated", &PyResult::updated, "False: the motion gate held the scan; only the estimate moved")
       .def_readonly("resampled", &PyResult::resampled)
-      .def_property_readonly("estimate", [](const PyResult& r) { return matrix_array(r.estimate.pose); },
-                             "4x4 world_T_sensor")
-      .def_property_readonly("covariance", [](const PyResult& r) { return matrix_array(r.estimate.covariance); },
-                             "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
+      .def_property_readonly(
+          "estimate", [](const PyResult& r) { return matrix_array(r.estimate.pose); }, "4x4 world_T_sensor")
+      .def_property_readonly(
+          "covariance", [](const PyResult& r) { return matrix_array(r.estimate.covariance); },
+          "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
       .def_property_readonly("mode_weight", [](const PyResult& r) { return r.estimate.weight; })
       .def_property_readonly("inlier_ratio", [](const PyResult& r) { return r.estimate.inlier_ratio; })
       .def_readonly("hypotheses", &PyResult::hypotheses, "the heaviest modes, heaviest first")

@@ -73,7 +73,8 @@ class ScratchDataset {
  public:
   ScratchDataset() {
     std::string pattern = (fs::temp_directory_path() / "tsdf_mcl_scans_XXXXXX").string();
-    if (!mkdtemp(pattern.data())) throw Error("cannot create a scratch folder in " + fs::temp_directory_path().string());
+    if (!mkdtemp(pattern.data()))
+      throw Error("cannot create a scratch folder in " + fs::temp_directory_path().string());
     dir_ = pattern;
   }
   ~ScratchDataset() {
@@ -104,7 +105,8 @@ MapPtr from_scan_arrays(const py::sequence& scans, const py::handle& poses, cons
   ScratchDataset scratch;
   {
     DatasetWriter writer(scratch.dir() / "scans_dataset");
-    for (std::size_t i = 0; i < clouds.size(); ++i) writer.add(static_cast<double>(i), clouds[i], world_T_sensor[i], {});
+    for (std::size_t i = 0; i < clouds.size(); ++i)
+      writer.add(static_cast<double>(i), clouds[i], world_T_sensor[i], {});
     writer.close();
   }
   const Dataset dataset = Dataset::open(scratch.dir() / "scans_dataset");

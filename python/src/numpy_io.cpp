@@ -82,9 +82,8 @@ std::vector<Eigen::Vector3f> points_from(const py::handle& obj, const char* name
   for (py::ssize_t i = 0; i < count; ++i) {
     const Eigen::Vector3f p(r(i, 0), r(i, 1), r(i, 2));
     if (!p.allFinite()) {
-      throw BadArgument(n + " row " + std::to_string(i) +
-                        " is not finite (NaN or Inf); drop such rows first: " + n + "[numpy.isfinite(" + n +
-                        ").all(axis=1)]");
+      throw BadArgument(n + " row " + std::to_string(i) + " is not finite (NaN or Inf); drop such rows first: " + n +
+                        "[numpy.isfinite(" + n + ").all(axis=1)]");
     }
     points[static_cast<std::size_t>(i)] = p;
   }
@@ -95,7 +94,8 @@ std::vector<Eigen::Vector3f> positions_from(const py::handle& obj, const char* n
   const py::array_t<double> a = doubles_from(obj, name, {-1, 3}, "an array of shape (N, 3)");
   std::vector<Eigen::Vector3f> out(static_cast<std::size_t>(a.shape(0)));
   const double* v = a.data();
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]).cast<float>();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]).cast<float>();
   return out;
 }
 
@@ -104,7 +104,8 @@ Pose pose_from(const py::handle& obj, const char* name) {
 }
 
 std::vector<Pose> poses_from(const py::handle& obj, const char* name) {
-  const py::array_t<double> a = doubles_from(obj, name, {-1, 4, 4}, "an array of 4x4 rigid transforms, shape (N, 4, 4)");
+  const py::array_t<double> a =
+      doubles_from(obj, name, {-1, 4, 4}, "an array of 4x4 rigid transforms, shape (N, 4, 4)");
   std::vector<Pose> poses;
   poses.reserve(static_cast<std::size_t>(a.shape(0)));
   for (py::ssize_t i = 0; i < a.shape(0); ++i) {
