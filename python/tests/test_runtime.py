@@ -2,6 +2,8 @@
 import gc
 import sys
 import threading
+import time
+import tracemalloc
 
 import numpy as np
 
@@ -11,30 +13,37 @@ from conftest import PARAMS
 
 def test_gil_is_released_during_process(scene):
     stamp, points, odom = tsdf_mcl.read_dataset(scene["dataset"])[0]
-    # A global search over 200,000 hypotheses: long enough for the other thread to count.
-    loc = tsdf_mcl.Localizer(scene["map"], dict(PARAMS, init_candidates=200000))
-    started, stop = threading.Event(), threading.Event()
+    # A global search over 200,000 hypotheses on one core: long enough for the other thread to count on the other.
+    loc = tsdf_mcl.Localizer(scene["map"], dict(PARAMS, init_candidates=200000, cpu_threads=1))
+    warmed_up, stop = threading.Event(), threading.Event()
     counts = [0]
 
     def count():
-        started.set()
         while not stop.is_set():
             counts[0] += 1
+            if counts[0] == 100000:
+                warmed_up.set()
 
     worker = threading.Thread(target=count)
+    t0 = time.perf_counter()
     worker.start()
-    started.wait()
-    before = counts[0]
+    warmed_up.wait()  # the GIL is free here: the counter's own pace
+    rate = 100000 / (time.perf_counter() - t0)
+    before, t1 = counts[0], time.perf_counter()
     loc.process(points, odom, stamp)
-    during = counts[0] - before
+    during, seconds = counts[0] - before, time.perf_counter() - t1
     stop.set()
     worker.join()
-    assert during > 1000, "the counting thread stood still during process(): the GIL was held"
+    # Holding the GIL, the counter would get at most a switch interval (5 ms) at either end of the call.
+    assert seconds > 0.2
+    assert during > 0.1 * rate * seconds, "the counting thread stood still during process(): the GIL was held"
 
 
 def test_no_reference_leak_over_1000_calls(scene):
+    # The motion gate holds most scans (an update per roughening_interval): the binding's work is what repeats.
     loc = tsdf_mcl.Localizer(scene["map"], dict(PARAMS, particles=200, max_particles=200, min_particles=100,
-                                                init_candidates=1000, max_beams=32))
+                                                init_candidates=1000, max_beams=32, update_min_d=1e3,
+                                                update_min_a=1e3))
     stamp, points, odom = tsdf_mcl.read_dataset(scene["dataset"])[0]
     points = points[::20].copy()
     m = scene["map"]
@@ -52,12 +61,18 @@ def test_no_reference_leak_over_1000_calls(scene):
 
     calls(20)  # caches, first allocations
     gc.collect()
+    tracemalloc.start()
     refs = (sys.getrefcount(points), sys.getrefcount(odom), sys.getrefcount(loc), sys.getrefcount(m))
     objects = len(gc.get_objects())
+    memory = tracemalloc.get_traced_memory()[0]
     calls(1000)
     gc.collect()
+    grown = tracemalloc.get_traced_memory()[0] - memory
+    tracemalloc.stop()
     assert (sys.getrefcount(points), sys.getrefcount(odom), sys.getrefcount(loc), sys.getrefcount(m)) == refs
     assert len(gc.get_objects()) - objects < 50
+    # numpy reports its buffers to tracemalloc: one array or Result kept per call would add over 100 kB.
+    assert grown < 50000, grown
 
 
 def test_concurrent_calls_on_one_localizer_take_turns(scene):
