@@ -4,13 +4,17 @@
 For each scan: the wall time of Localizer.process() seen from Python, minus the time the library's
 Localizer::process took inside it (Result.timings["process_ms"], measured around that call alone). The difference
 is what the binding adds: reading the numpy array, checking it, releasing and taking the GIL, the Result.
-Prints one JSON object.
+With --cli, also the same global localization run both ways on a dataset of such scans: `tsdf-mcl localize`'s
+loop (report.json summary.wall_s: reading the scans and processing them) against the same loop in Python
+(read_dataset and Localizer.process), same parameters and seed. Prints one JSON object.
 
     PYTHONPATH=build/ci/python /usr/bin/python3 bench/python_overhead.py [--scans N] [--particles N] [--backend cpu]
+        [--cli build/ci/tools/tsdf-mcl]
 """
 import argparse
 import json
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -22,16 +26,42 @@ import box_scene  # noqa: E402
 import tsdf_mcl  # noqa: E402
 
 
+def compare_with_cli(cli, room_file, room, params, scans, tmp):
+    """Wall time of the localization loop: the CLI's against Python's, same dataset, parameters and seed."""
+    dataset = os.path.join(tmp, "dataset")
+    box_scene.write_dataset(dataset, n=scans, beams=64, azimuths=512)
+    flags = [a for k, v in params.items() for a in ("--" + k, str(v))]
+    out = os.path.join(tmp, "run")
+    subprocess.run([cli, "localize", "--map", room_file, "--dataset", dataset, *flags, "-o", out], check=True,
+                   capture_output=True)
+    with open(os.path.join(out, "report.json")) as f:
+        cli_s = json.load(f)["summary"]["wall_s"]
+    loc = tsdf_mcl.Localizer(room, params)
+    t0 = time.perf_counter()
+    for stamp, points, odom in tsdf_mcl.read_dataset(dataset):
+        loc.process(points, odom, stamp)
+    python_s = time.perf_counter() - t0
+    return {"scans": scans, "cli_loop_s": cli_s, "python_loop_s": python_s, "python_over_cli": python_s / cli_s}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scans", type=int, default=60)
     ap.add_argument("--particles", type=int, default=2000)
     ap.add_argument("--backend", default="cpu")
+    ap.add_argument("--cli", help="the tsdf-mcl program: also compare a whole run with localize")
     args = ap.parse_args()
+    compared = None
     with tempfile.TemporaryDirectory() as tmp:
         mesh = os.path.join(tmp, "room.ply")
         box_scene.write_mesh(mesh)
         room = tsdf_mcl.build_map_from_mesh(mesh, voxel_size=0.1)
+        if args.cli:
+            room_file = os.path.join(tmp, "room.tsdf")
+            room.save(room_file)
+            params = {"backend": args.backend, "seed": 1, "particles": 20000, "max_particles": 20000,
+                      "init_height_band": "0.4,1.0", "init_max_tilt": 0.1}
+            compared = compare_with_cli(args.cli, room_file, room, params, 40, tmp)
     truth = box_scene.trajectory(args.scans)
     odom = box_scene.odometry(truth)
     rng = np.random.default_rng(1)
@@ -62,6 +92,7 @@ def main():
         "overhead_ms_max": float(overhead.max()),
         "target_ms": 1.0,
         "converged_last": bool(r.converged),
+        "whole_run": compared,
     }, indent=2))
 
 

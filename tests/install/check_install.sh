@@ -12,6 +12,14 @@ cmake --install "$build" --prefix "$prefix" >/dev/null
 [ -x "$prefix/bin/tsdf-mcl" ] || { echo "check_install: no bin/tsdf-mcl in the prefix" >&2; exit 1; }
 "$prefix/bin/tsdf-mcl" --help >/dev/null
 
+# The Python module, where the build has it (docs/python.md): below the prefix, importable from there.
+if [ -e "$build/python" ]; then
+  module=$(find "$prefix" -name 'tsdf_mcl.*.so' | head -n 1)
+  [ -n "$module" ] || { echo "check_install: the Python module was not installed" >&2; exit 1; }
+  PYTHONPATH=$(dirname "$module") /usr/bin/python3 -c "import tsdf_mcl, sys; assert tsdf_mcl.__file__ == sys.argv[1]" \
+    "$module" || { echo "check_install: the installed Python module does not import" >&2; exit 1; }
+fi
+
 cmake -S "$here/consumer" -B "$scratch/cmake" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
 cmake --build "$scratch/cmake" >/dev/null
 "$scratch/cmake/consumer"
