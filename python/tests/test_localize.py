@@ -76,3 +76,21 @@ def test_init_pose_tracks_from_a_given_pose(scene):
     for (stamp, points, odom), t in zip(tsdf_mcl.read_dataset(scene["dataset"], count=8), truth):
         r = loc.process(points, odom, stamp)
     assert np.linalg.norm(r.estimate[:3, 3] - t[:3, 3]) < 0.1
+
+
+def test_vulkan_backend_gives_the_cli_run(scene, cli, tmp_path, capfd):
+    """On the Vulkan backend (lavapipe in the test run, validation layers on through the environment)."""
+    params = dict(PARAMS, backend="vulkan", particles=3000, max_particles=3000, init_candidates=30000)
+    del params["cpu_threads"]
+    out = tmp_path / "run"
+    run(cli, "localize", "--map", scene["map_file"], "--dataset", scene["dataset"], "--count", "6",
+        *cli_args(params), "-o", str(out))
+    report = json.loads((out / "report.json").read_text())
+    capfd.readouterr()
+    loc = tsdf_mcl.Localizer(scene["map"], params)
+    assert loc.backend == "vulkan"
+    for (stamp, points, odom), s in zip(tsdf_mcl.read_dataset(scene["dataset"], count=6), report["scans"]):
+        r = loc.process(points, odom, stamp)
+        assert tuple(r.estimate[:3, 3]) == (s["estimate"]["x"], s["estimate"]["y"], s["estimate"]["z"])
+        assert r.ess == s["ess"]
+    assert "validation" not in capfd.readouterr().err
