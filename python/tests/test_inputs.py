@@ -131,6 +131,12 @@ def test_other_bad_arguments(scene, scan, tmp_path):
     loc.add_imu([10.0, 0.0, 0.0, 9.81])
     with pytest.raises(tsdf_mcl.Error, match="time order"):
         loc.add_imu(np.array([[5.0, 0.0, 0.0, 9.81]]))
+    with pytest.raises(tsdf_mcl.Error, match="motion_model odometry"):
+        loc.process(points, None, stamp)
+    with pytest.raises(tsdf_mcl.Error, match="laser_min_range"):
+        loc.process(np.zeros((10, 3), np.float32), odom, stamp)
+    without_odometry = tsdf_mcl.Localizer(scene["map"], dict(SMALL, motion_model="constant_velocity"))
+    assert without_odometry.process(points, None, stamp).index == 0
     with pytest.raises(ValueError, match="interpolation"):
         scene["map"].distance(points, interpolation="cubic")
     with pytest.raises(ValueError, match="voxel_size"):
