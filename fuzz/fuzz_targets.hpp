@@ -20,7 +20,7 @@
 #include "tsdf_mcl/map_builder.hpp"
 #include "tsdf_mcl/map_io.hpp"
 #include "tsdf_mcl/mesh.hpp"
-#include "parameter_file.hpp"
+#include "tsdf_mcl/parameter_file.hpp"
 #include "tsdf_mcl/particle_snapshot.hpp"
 #include "tsdf_mcl/pointcloud2.hpp"
 #include "tsdf_mcl/ros1_messages.hpp"
@@ -163,7 +163,7 @@ inline void text(const std::uint8_t* data, std::size_t size) {
 
 // YAML / JSON parameter files (localize --config).
 inline void config(const std::uint8_t* data, std::size_t size) {
-  expect_no_crash([&] { read_parameter_file(as_file("config.yaml", data, size)); });
+  expect_no_crash([&] { read_parameter_file(as_file("config.yaml", data, size).string()); });
 }
 
 // Particle snapshots (render --particles).

@@ -270,9 +270,9 @@ TEST(CliLocalize, BadInputGivesOneClearError) {
   expect_one_line_error(out, "localize --map " + (out / "not_a_map.tsdf").string() + " --dataset " + f.dataset + o,
                         "not_a_map.tsdf");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --max_beam 5" + o, "unknown option --max_beam");
-  expect_one_line_error(out, base + " --dataset " + f.dataset + " --pf_err abc" + o, "--pf_err expects a number");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --pf_err abc" + o, "pf_err expects a number");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --resample_method lucky" + o, "resample_method");
-  expect_one_line_error(out, base + " --dataset " + f.dataset + " --init 1,2,3" + o, "--init expects");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --init 1,2,3" + o, "init expects");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --subset_share 1.5" + o,
                         "subset_share must lie in (0, 1]");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --start 99" + o, "selects no scan");
@@ -286,10 +286,10 @@ TEST(CliLocalize, HostileCountsConfigsAndOutputFolders) {
   TempDir out;
   const std::string base = "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --particles 200";
   const std::string o = " -o " + (out / "run").string();
-  expect_one_line_error(out, base + " --cpu_threads 100000" + o, "--cpu_threads 100000 is more than the limit of 256");
-  expect_one_line_error(out, base + " --particles 4294967296" + o, "--particles 4294967296 is more than the limit");
-  expect_one_line_error(out, base + " --max_particles 4294967295" + o, "--max_particles 4294967295 is more than");
-  expect_one_line_error(out, base + " --max_beams 4294967296" + o, "--max_beams 4294967296 is more than");
+  expect_one_line_error(out, base + " --cpu_threads 100000" + o, "cpu_threads 100000 is more than the limit of 256");
+  expect_one_line_error(out, base + " --particles 4294967296" + o, "particles 4294967296 is more than the limit");
+  expect_one_line_error(out, base + " --max_particles 4294967295" + o, "max_particles 4294967295 is more than");
+  expect_one_line_error(out, base + " --max_beams 4294967296" + o, "max_beams 4294967296 is more than");
 
   // A 1.4 KB alias bomb expanded to gigabytes; a folder given as --config was an "internal error".
   std::string bomb = "a: &a {k0: 1, k1: 1, k2: 1, k3: 1, k4: 1, k5: 1, k6: 1, k7: 1, k8: 1}\n";

@@ -1,9 +1,11 @@
 #include "localization_node.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -13,9 +15,9 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/exceptions.h>
 
-#include "localize_parameters.hpp"
 #include "ros_conversions.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/localizer_parameters.hpp"
 #include "tsdf_mcl/map_io.hpp"
 #include "tsdf_mcl/planar_pose.hpp"
 #include "tsdf_mcl/transform_tree.hpp"
@@ -50,34 +52,39 @@ std::string to_text(const XmlRpc::XmlRpcValue& v) {
   }
 }
 
-// The filter parameters, by their tsdf-mcl localize names (nav2 AMCL's where they exist), from the private
-// namespace ("initial_pose.x" is ~initial_pose/x), through the same Options and validation as the command line.
-LocalizerOptions localizer_options_from(const ros::NodeHandle& pnh) {
-  const std::vector<cli::OptionSpec> specs = cli::localize_parameter_specs();
-  std::vector<std::string> args = {"tsdf_mcl_node"};
-  for (const cli::OptionSpec& spec : specs) {
-    std::string key = spec.name;
-    for (char& c : key) c = c == '.' ? '/' : c;
+// A schema name as a key of the private namespace: "initial_pose.x" is ~initial_pose/x.
+std::string ros_key(const std::string& name) {
+  std::string key = name;
+  for (char& c : key) c = c == '.' ? '/' : c;
+  return key;
+}
+
+// Every name of the library's parameter schema (localizer_parameters.hpp) and its amcl aliases.
+std::vector<std::string> schema_names() {
+  std::vector<std::string> names;
+  for (const ParameterSpec& spec : localizer_parameter_specs()) names.push_back(spec.name);
+  for (const ParameterAlias& alias : localizer_parameter_aliases()) names.push_back(alias.alias);
+  return names;
+}
+
+// The filter parameters, by the library schema's names (nav2 AMCL's where they exist, ROS 1 amcl's as aliases),
+// from the private namespace, with the schema's validation: the node is a plain adapter over it.
+LocalizerOptions localizer_options_of(const ros::NodeHandle& pnh) {
+  std::map<std::string, std::string> values;
+  for (const std::string& name : schema_names()) {
     XmlRpc::XmlRpcValue value;
-    if (!pnh.getParam(key, value)) continue;
-    std::string text;
+    if (!pnh.getParam(ros_key(name), value)) continue;
     try {
-      text = to_text(value);
+      values[name] = to_text(value);
     } catch (const Error& e) {
-      throw Error("~" + key + ": " + e.what());
+      throw Error("~" + ros_key(name) + ": " + e.what());
     }
-    if (spec.value_name.empty()) {  // a flag
-      if (text == "true") args.push_back("--" + spec.name);
-      continue;
-    }
-    args.push_back("--" + spec.name);
-    args.push_back(text);
   }
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  const cli::Options options("tsdf_mcl_node", "tsdf_mcl_node (ROS parameters)", specs, static_cast<int>(argv.size()),
-                             argv.data(), 1);
-  return cli::localizer_options(options);
+  try {
+    return localizer_options_from(values);
+  } catch (const Error& e) {
+    throw Error(std::string("parameter ~") + e.what());
+  }
 }
 
 NodeSettings settings_from(const ros::NodeHandle& pnh) {
@@ -116,22 +123,20 @@ NodeSettings settings_from(const ros::NodeHandle& pnh) {
 
 // A misspelt parameter would otherwise be silently ignored.
 void warn_unknown_parameters(const ros::NodeHandle& pnh) {
-  std::set<std::string> known = {"map_file",        "global_frame_id", "odom_frame_id", "base_frame_id",
-                                 "point_topics",    "odom_topic",      "imu_topic",     "transform_tolerance",
-                                 "tf_timeout",      "merge_window",    "tf_broadcast",  "max_published_particles",
-                                 "map_cloud_points"};
-  for (const cli::OptionSpec& spec : cli::localize_parameter_specs()) {
-    std::string key = spec.name;
-    for (char& c : key) c = c == '.' ? '/' : c;
-    known.insert(key);
-  }
+  std::vector<std::string> known = {"map_file",        "global_frame_id", "odom_frame_id", "base_frame_id",
+                                    "point_topics",    "odom_topic",      "imu_topic",     "transform_tolerance",
+                                    "tf_timeout",      "merge_window",    "tf_broadcast",  "max_published_particles",
+                                    "map_cloud_points"};
+  for (const std::string& name : schema_names()) known.push_back(ros_key(name));
   std::vector<std::string> names;
   if (!ros::param::getParamNames(names)) return;
   const std::string ns = pnh.getNamespace() + "/";
   for (const std::string& name : names) {
     if (name.rfind(ns, 0) != 0) continue;
-    if (!known.count(name.substr(ns.size()))) {
-      ROS_WARN("tsdf_mcl: unknown parameter %s ignored (see tsdf-mcl localize --help and docs/ros.md)", name.c_str());
+    const std::string key = name.substr(ns.size());
+    if (std::find(known.begin(), known.end(), key) == known.end()) {
+      ROS_WARN("tsdf_mcl: unknown parameter %s ignored%s (see tsdf-mcl localize --help and docs/ros.md)", name.c_str(),
+               did_you_mean(key, known, "~").c_str());
     }
   }
 }
@@ -147,7 +152,7 @@ LocalizationNode::LocalizationNode(ros::NodeHandle nh, ros::NodeHandle private_n
     : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_) {
   settings_ = settings_from(private_nh_);
   warn_unknown_parameters(private_nh_);
-  const LocalizerOptions options = localizer_options_from(private_nh_);
+  const LocalizerOptions options = localizer_options_of(private_nh_);
   map_ = load_map(settings_.map_file);
   localizer_ = std::make_unique<Localizer>(map_, options);
   ROS_INFO("tsdf_mcl: map %s, %s", settings_.map_file.c_str(), localizer_->backend_note().c_str());

@@ -13,6 +13,7 @@ struct OptionSpec {
   std::string value_name;     // empty for a flag
   std::string default_value;  // shown by --help; empty = no default
   std::string help;
+  std::string group = {};  // --help section ("input", "initialization", ...); empty = the command's only one
 };
 
 class Options {
