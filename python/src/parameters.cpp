@@ -5,6 +5,7 @@
 #include "numpy_io.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/localizer_parameters.hpp"
+#include "tsdf_mcl/parameter_file.hpp"
 
 namespace tsdf_mcl::python {
 namespace {
