@@ -43,7 +43,7 @@ def test_no_reference_leak_over_1000_calls(scene):
     # The motion gate holds most scans (an update per roughening_interval): the binding's work is what repeats.
     loc = tsdf_mcl.Localizer(scene["map"], dict(PARAMS, particles=200, max_particles=200, min_particles=100,
                                                 init_candidates=1000, max_beams=32, update_min_d=1e3,
-                                                update_min_a=1e3))
+                                                update_min_a=3.0))
     stamp, points, odom = tsdf_mcl.read_dataset(scene["dataset"])[0]
     points = points[::20].copy()
     m = scene["map"]
