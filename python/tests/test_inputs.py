@@ -156,8 +156,15 @@ def test_other_bad_arguments(scene, scan, tmp_path):
 def test_bad_parameters_raise_value_error_naming_them(scene, tmp_path):
     with pytest.raises(ValueError, match="no_such_parameter"):
         tsdf_mcl.Localizer(scene["map"], {"no_such_parameter": 1})
+    with pytest.raises(ValueError, match="did you mean sigma_hit"):
+        tsdf_mcl.Localizer(scene["map"], {"sigma_hitt": 0.1})
     with pytest.raises(ValueError, match="sigma_hit"):
         tsdf_mcl.Localizer(scene["map"], {"sigma_hit": "wide"})
+    with pytest.raises(ValueError, match="parameter 'particles' must be a number"):
+        tsdf_mcl.Localizer(scene["map"], {"particles": {"a": 1}})
+    # Flags as bools, amcl's names, angles with a unit: the schema's forms.
+    assert tsdf_mcl.Localizer(scene["map"], dict(SMALL, ignore_imu=True, laser_sigma_hit=0.1,
+                                                 update_min_a="5deg")).backend == "cpu"
     with pytest.raises(ValueError, match="sigma_hit"):
         tsdf_mcl.Localizer(scene["map"], {"sigma_hit": None})
     with pytest.raises(ValueError, match="backend"):
