@@ -1,5 +1,6 @@
 """Localization from Python gives the CLI's run, estimate for estimate, and the CLI's metrics."""
 import json
+import shutil
 
 import numpy as np
 
@@ -94,3 +95,31 @@ def test_vulkan_backend_gives_the_cli_run(scene, cli, tmp_path, capfd):
         assert tuple(r.estimate[:3, 3]) == (s["estimate"]["x"], s["estimate"]["y"], s["estimate"]["z"])
         assert r.ess == s["ess"]
     assert "validation" not in capfd.readouterr().err
+
+
+def test_imu_fed_as_the_cli_feeds_it(scene, cli, tmp_path):
+    """imu.txt beside the scans: the CLI feeds each sample up to 0.1 s past a scan's time; so does this loop."""
+    dataset = tmp_path / "with_imu"
+    shutil.copytree(scene["dataset"], dataset)
+    rng = np.random.default_rng(4)
+    t = np.arange(scene["times"][0] - 0.2, scene["times"][-1] + 0.2, 0.01)
+    k = np.clip(np.searchsorted(scene["times"], t), 0, len(scene["times"]) - 1)
+    up = np.stack([scene["truth"][i][:3, :3].T @ (0.0, 0.0, 9.81) for i in k]) + rng.normal(0, 0.05, (len(t), 3))
+    np.savetxt(dataset / "imu.txt", np.column_stack([t, up]), fmt="%.6f")
+    params = dict(PARAMS, count=8)
+    out = tmp_path / "run"
+    r = run(cli, "localize", "--map", scene["map_file"], "--dataset", str(dataset), *cli_args(params), "-o", str(out))
+    assert "and the IMU" in r.stderr
+    report = json.loads((out / "report.json").read_text())
+    del params["count"]
+    loc = tsdf_mcl.Localizer(scene["map"], params)
+    data = tsdf_mcl.read_dataset(str(dataset), count=8)
+    imu = data.imu
+    assert imu.shape == (len(t), 4)
+    fed = 0
+    for (stamp, points, odom), s in zip(data, report["scans"]):
+        upto = np.searchsorted(imu[:, 0], stamp + 0.1, side="right")
+        loc.add_imu(imu[fed:upto])
+        fed = upto
+        result = loc.process(points, odom, stamp)
+        assert tuple(result.estimate[:3, 3]) == (s["estimate"]["x"], s["estimate"]["y"], s["estimate"]["z"])
