@@ -5,8 +5,7 @@ import subprocess
 import pytest
 
 import box_scene
-
-import tsdf_mcl  # noqa: E402  (PYTHONPATH: the build tree)
+import tsdf_mcl  # from the build tree: ctest sets PYTHONPATH
 
 # A ground robot's run on the CPU backend with fixed threads: reproducible for a seed (docs/python.md).
 PARAMS = {
