@@ -27,14 +27,21 @@ if grep -q '^TSDF_MCL_HAVE_ROS_NODE:INTERNAL=ON' "$build/CMakeCache.txt" 2>/dev/
   [ -n "$ros" ] || fail "the ROS node is built but there is no tsdf-mcl-ros package"
 fi
 
-# 1. contents
-dpkg-deb -c "$cli" | grep -q '\./usr/bin/tsdf-mcl$' || fail "$cli lacks usr/bin/tsdf-mcl"
+# 1. contents (listed to files first: grep -q closing a pipe would fail dpkg-deb under pipefail)
+dpkg-deb -c "$cli" >"$work/cli.list"
+dpkg-deb -c "$dev" >"$work/dev.list"
+grep -q '\./usr/bin/tsdf-mcl$' "$work/cli.list" || fail "$cli lacks usr/bin/tsdf-mcl"
 for f in 'include/tsdf_mcl/cpu_evaluator.hpp' 'cmake/tsdf_mcl/tsdf_mclConfig.cmake' 'libtsdf_mcl_core.a' \
   'pkgconfig/tsdf_mcl.pc'; do
-  dpkg-deb -c "$dev" | grep -q "$f\$" || fail "$dev lacks $f"
+  grep -q "$f\$" "$work/dev.list" || fail "$dev lacks $f"
 done
-[ -z "$ros" ] || dpkg-deb -c "$ros" | grep -q '/tsdf_mcl_node$' || fail "$ros lacks tsdf_mcl_node"
-if dpkg-deb -c "$cli" | grep -q '\.a$\|/include/'; then fail "$cli carries the library's files"; fi
+ros_node=
+if [ -n "$ros" ]; then
+  dpkg-deb -c "$ros" >"$work/ros.list"
+  ros_node=$(awk '/\/tsdf_mcl_node$/ {print substr($NF, 2)}' "$work/ros.list")
+  [ -n "$ros_node" ] || fail "$ros lacks tsdf_mcl_node"
+fi
+if grep -q '\.a$\|/include/' "$work/cli.list"; then fail "$cli carries the library's files"; fi
 
 # 2. Depends against what the binaries load
 owner() {  # the package owning a library path, under any of the names usr-merge gives it
@@ -49,8 +56,9 @@ check_depends() {  # deb, binary path inside it
   local deb=$1 bin=$2 root="$work/x-$(basename "$1" .deb)"
   dpkg-deb -x "$deb" "$root"
   local depends
-  depends=$(dpkg-deb -f "$deb" Depends | tr ',' '\n' | sed 's/[ (].*//; s/^ *//; s/|.*//' | grep -v '^$')
-  for lib in $(readelf -d "$root$bin" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p'); do
+  depends=$(dpkg-deb -f "$deb" Depends | tr ',' '\n' | sed 's/^ *//; s/[ (|].*//' | grep -v '^$')
+  readelf -d "$root$bin" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p' >"$root.needed"
+  for lib in $(cat "$root.needed"); do
     local path pkg
     path=$(ldconfig -p | awk -v l="$lib" '$1 == l && /x86-64|AArch64/ {print $NF; exit}')
     [ -n "$path" ] || fail "$bin needs $lib, which is not installed here"
@@ -61,13 +69,14 @@ check_depends() {  # deb, binary path inside it
     { cat "$work/apt-$(basename "$deb").log" >&2; fail "apt cannot satisfy the Depends of $(basename "$deb")"; }
 }
 check_depends "$cli" /usr/bin/tsdf-mcl
-[ -z "$ros" ] || check_depends "$ros" "$(dpkg-deb -c "$ros" | awk '/\/tsdf_mcl_node$/ {print substr($NF, 2)}')"
+[ -z "$ros" ] || check_depends "$ros" "$ros_node"
 apt-get install --simulate -qq "$dev" >"$work/apt-dev.log" 2>&1 ||
   { cat "$work/apt-dev.log" >&2; fail "apt cannot satisfy the Depends of $(basename "$dev")"; }
 
 # 3. the unpacked program
 bin="$work/x-$(basename "$cli" .deb)/usr/bin/tsdf-mcl"
-"$bin" --help | grep -q '^  localize' || fail "tsdf-mcl --help from the package lists no localize command"
+"$bin" --help >"$work/help.txt"
+grep -q '^  localize' "$work/help.txt" || fail "tsdf-mcl --help from the package lists no localize command"
 cd "$work"
 "$bin" simulate --scene office --route test --length 2 --start 5,5,0 -o route >sim.log 2>&1 || { cat sim.log >&2; fail "simulate failed"; }
 "$bin" build-map --mesh route/scene.ply --voxel 0.1 -o office.tsdf >map.log 2>&1 || { cat map.log >&2; fail "build-map failed"; }
