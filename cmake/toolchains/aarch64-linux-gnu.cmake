@@ -32,8 +32,10 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE ONLY)
 set(ENV{PKG_CONFIG_SYSROOT_DIR} "${TSDF_MCL_ARM64_SYSROOT}")
 set(ENV{PKG_CONFIG_LIBDIR}
     "${TSDF_MCL_ARM64_SYSROOT}/usr/lib/aarch64-linux-gnu/pkgconfig:${TSDF_MCL_ARM64_SYSROOT}/usr/share/pkgconfig")
-# FindHDF5 would ask the host's h5cc, which answers with x86-64 paths: search the sysroot's files instead.
-set(HDF5_C_COMPILER_EXECUTABLE HDF5_C_COMPILER_EXECUTABLE-NOTFOUND CACHE FILEPATH "no h5cc when cross compiling")
+# FindHDF5 asks the host's h5cc (Debian's libhdf5-dev) for flags: its include folder is found again in the sysroot,
+# its library folder is the x86-64 one, so name the sysroot's serial HDF5 library.
+set(HDF5_C_LIBRARY_hdf5 "${TSDF_MCL_ARM64_SYSROOT}/usr/lib/aarch64-linux-gnu/hdf5/serial/libhdf5.so"
+    CACHE FILEPATH "arm64 HDF5 library")
 
 # gtest_discover_tests and any add_test run the aarch64 binaries through qemu-user with the sysroot's loader.
 find_program(TSDF_MCL_QEMU_AARCH64 qemu-aarch64)
