@@ -55,9 +55,10 @@ set(CPACK_DEBIAN_ROS_PACKAGE_RECOMMENDS "mesa-vulkan-drivers | vulkan-icd, rosou
 
 if(CMAKE_CROSSCOMPILING)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS OFF)
-  # What tools/tsdf-mcl links on Debian 12 (readelf -d NEEDED), by package.
+  # What tools/tsdf-mcl links on Debian 12 (readelf -d NEEDED), by package; its newest symbol versions are
+  # GLIBC_2.35 and GLIBCXX_3.4.29 (objdump -T), which Ubuntu 22.04 (JetPack 6) also has.
   set(CPACK_DEBIAN_CLI_PACKAGE_DEPENDS
-      "libc6 (>= 2.34), libstdc++6 (>= 12), libgcc-s1, libgomp1, libvulkan1, libembree3-3, libcairo2, libyaml-cpp0.7, libhdf5-103-1, zlib1g")
+      "libc6 (>= 2.35), libstdc++6 (>= 11), libgcc-s1, libgomp1, libvulkan1, libembree3-3, libcairo2, libyaml-cpp0.7, libhdf5-103-1, zlib1g")
 else()
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 endif()
