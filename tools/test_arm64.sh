@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Cross-builds tsdf-mcl for aarch64 (cmake --preset arm64) and runs a subset of the test suite under qemu-aarch64
 # with the arm64 lavapipe and the Vulkan validation layers on (a validation message fails a test), then the arm64
-# CLI itself (--help, a tiny bench on lavapipe and on the CPU's NEON path). Needs tools/setup.sh --arm64.
+# CLI itself (--help, a tiny bench on lavapipe and on the CPU's NEON path), then builds the arm64 Debian packages and
+# checks that apt resolves their Depends. Needs tools/setup.sh --arm64.
 #
 # The subset (TSDF_MCL_ARM64_FILTER overrides it) and why: qemu-user runs aarch64 code 10-40x slower than native
 # and lavapipe's JIT'd shaders on top of that, so the whole suite (minutes natively) would take an hour. It keeps
@@ -75,4 +76,15 @@ run "$cli" bench --map "$work/office.tsdf" --dataset "$work/route" --particles 2
 grep -q '"backend":"vulkan","device":"llvmpipe' "$work/bench.json" &&
   grep -q '"backend":"cpu","device":"CPU ([0-9]* threads, NEON)"' "$work/bench.json" ||
   { cat "$work/bench.json" >&2; echo "test_arm64.sh: bench did not run on arm64 lavapipe and the NEON path" >&2; exit 1; }
+# The arm64 Debian packages: built for arm64 with an aarch64 program, and apt resolves their Depends from Debian's
+# arm64 archive (the host has arm64 as a dpkg architecture; --simulate installs nothing).
+(cd build/arm64 && cpack -G DEB -B "$work/pkgs" >"$work/cpack.log" 2>&1) ||
+  { cat "$work/cpack.log" >&2; echo "test_arm64.sh: cpack failed" >&2; exit 1; }
+for name in tsdf-mcl libtsdf-mcl-dev; do
+  deb=$(ls "$work"/pkgs/"$name"_*_arm64.deb 2>/dev/null) || { echo "test_arm64.sh: no ${name}_*_arm64.deb" >&2; exit 1; }
+  apt-get install --simulate -qq "$deb" >"$work/apt-$name.log" 2>&1 ||
+    { cat "$work/apt-$name.log" >&2; echo "test_arm64.sh: apt cannot resolve the Depends of $deb" >&2; exit 1; }
+done
+dpkg-deb -x "$work"/pkgs/tsdf-mcl_*_arm64.deb "$work/root"
+file "$work/root/usr/bin/tsdf-mcl" | grep -q "ARM aarch64" || { echo "test_arm64.sh: the arm64 package's program is not aarch64" >&2; exit 1; }
 echo "test_arm64.sh: passed in $(($(date +%s) - start)) s"
