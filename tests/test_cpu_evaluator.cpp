@@ -1,5 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cpu/endpoint_avx2.hpp"
+#include "cpu/endpoint_neon.hpp"
 #include "tsdf_mcl/cpu_evaluator.hpp"
 #include "tsdf_mcl/weight_reduction.hpp"
 #include "sensor_test_support.hpp"
@@ -127,16 +133,19 @@ TEST(WeightReduction, MatchesDirectSumsAndIgnoresThreadCount) {
 namespace tsdf_mcl {
 namespace {
 
-// The AVX2 path (where the CPU has it) must give the scalar path's log-weights bit for bit.
-TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
+// The SIMD path the evaluator picked must give the scalar path's log-weights bit for bit: 1003 particles (not a
+// multiple of 8 or 4, so short last groups), some far outside the map so lookups hit every kind of cell (outside,
+// unknown, free, allocated), both likelihood forms.
+void expect_simd_equals_scalar(const std::string& expected_path) {
   const TsdfMap map = test::make_room_map(0.05f, 0.3f);
   CpuEvaluator scalar(map, 2, false);
   CpuEvaluator simd(map, 2, true);
+  ASSERT_EQ(std::string(scalar.simd_path()), "");
+  ASSERT_EQ(std::string(simd.simd_path()), expected_path);
   std::mt19937 rng(21);
-  const std::size_t n = 1003;  // not a multiple of 8
+  const std::size_t n = 1003;
   scalar.reserve(n, 333);
   simd.reserve(n, 333);
-  // Some particles far outside the map so lookups hit every kind of cell: outside, unknown, free, allocated.
   test::random_particles(scalar.particles(), n, rng, Eigen::Vector3f(-6, -5, -2), Eigen::Vector3f(6, 5, 5));
   for (std::size_t i = 0; i < n; ++i)
     simd.particles().set(i, scalar.particles().position(i), scalar.particles().rotation(i));
@@ -150,6 +159,57 @@ TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
     simd.evaluate(n, model, Eigen::Quaternionf::Identity());
     for (std::size_t i = 0; i < n; ++i)
       ASSERT_EQ(simd.particles().log_weight[i], scalar.particles().log_weight[i]) << i;
+  }
+}
+
+TEST(CpuEvaluator, SimdPathEqualsScalarPath) {
+  if (!kernel::avx2_available()) GTEST_SKIP() << "this CPU has no AVX2 (the NEON twin is NeonPathEqualsScalarPath)";
+  expect_simd_equals_scalar("AVX2");
+}
+
+// aarch64 builds (tools/test_arm64.sh runs them under qemu-aarch64): the evaluator must pick NEON and match.
+TEST(CpuEvaluator, NeonPathEqualsScalarPath) {
+  if (!kernel::neon_available()) GTEST_SKIP() << "not an aarch64 build";
+  expect_simd_equals_scalar("NEON");
+}
+
+// The NEON kernel on sub-ranges that start and end off its 4-lane grid, against MapView lookups and the table
+// summed in the scalar order; and it writes nothing outside [begin, end).
+TEST(CpuEvaluator, NeonKernelMatchesScalarLookupsOnSubranges) {
+  if (!kernel::neon_available()) GTEST_SKIP() << "not an aarch64 build";
+  const TsdfMap map = test::make_room_map(0.05f, 0.3f);
+  const kernel::MapView view(map);
+  EndpointModel model;
+  std::vector<float> table;
+  kernel::likelihood_table(model, view.quant_step, table);
+  CpuEvaluator holder(map, 1, false);
+  std::mt19937 rng(5);
+  const std::size_t n = 37;
+  holder.reserve(n, 101);
+  const ParticleArrays p = holder.particles();
+  test::random_particles(p, n, rng, Eigen::Vector3f(-6, -5, -2), Eigen::Vector3f(6, 5, 5));
+  const auto scan = test::random_scan(101, rng, 8.0f);
+  std::vector<float> pts;
+  for (const auto& q : scan) pts.insert(pts.end(), {q.x(), q.y(), q.z()});
+  for (const auto& [begin, end] : {std::pair<std::size_t, std::size_t>{0, 37}, {3, 4}, {5, 14}, {30, 37}}) {
+    std::vector<float> acc(n, -7.0f);
+    kernel::accumulate_nearest_neon(view, table.data(), p, begin, end, pts.data(), scan.size(), acc.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      if (i < begin || i >= end) {
+        ASSERT_EQ(acc[i], -7.0f) << i;
+        continue;
+      }
+      float r[9];
+      kernel::rotation_matrix(p.qw[i], p.qx[i], p.qy[i], p.qz[i], r);
+      const float t[3] = {p.x[i], p.y[i], p.z[i]};
+      float expected = 0.0f;
+      for (std::size_t j = 0; j < scan.size(); ++j) {
+        float g[3];
+        kernel::to_grid(r, t, view.inv_voxel, pts[3 * j], pts[3 * j + 1], pts[3 * j + 2], g);
+        expected += table[kernel::sample_nearest(view, g) + 32768];
+      }
+      ASSERT_EQ(acc[i], expected) << i << " in [" << begin << ", " << end << ")";
+    }
   }
 }
 

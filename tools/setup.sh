@@ -4,8 +4,12 @@
 # and message headers, ROS bags (docs/bags.md; the build leaves bag support out where they are missing); roscpp,
 # tf2_ros, rosmaster, roslaunch and rosbag, the ROS 1 node and its test (docs/ros.md; left out where missing);
 # pybind11, numpy, pytest and matplotlib, the Python module, its tests and examples (docs/python.md); clang-format
-# and clang-tidy, the code style checks.
+# and clang-tidy, the code style checks. --arm64 also installs the aarch64 cross compiler and qemu-user and unpacks
+# the arm64 sysroot (tools/arm64_sysroot.sh; cmake --preset arm64, tools/test_arm64.sh, docs/deploy.md).
 set -euo pipefail
+
+arm64=0
+[ "${1:-}" = "--arm64" ] && arm64=1
 
 packages=(
   build-essential cmake ninja-build pkg-config git
@@ -29,15 +33,26 @@ else
   exit 1
 fi
 
+if [ "$arm64" = 1 ]; then
+  packages+=(g++-aarch64-linux-gnu qemu-user)
+  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+    "${sudo[@]}" dpkg --add-architecture arm64
+    "${sudo[@]}" apt-get update -qq
+  fi
+fi
+
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup.sh: all packages present"
-  exit 0
+else
+  echo "setup.sh: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo[@]}" apt-get update -qq
+  "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-echo "setup.sh: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-"${sudo[@]}" apt-get update -qq
-"${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+if [ "$arm64" = 1 ]; then
+  "${sudo[@]}" bash "$(dirname "$0")/arm64_sysroot.sh"
+fi

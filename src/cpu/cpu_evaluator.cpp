@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "endpoint_avx2.hpp"
+#include "endpoint_neon.hpp"
 #include "tsdf_mcl/weight_reduction.hpp"
 #include "tsdf_mcl/error.hpp"
 
@@ -21,12 +22,20 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads, bool use_simd)
     : map_view_(map),
       threads_(threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
-      use_avx2_(use_simd && kernel::avx2_available()) {
+      simd_(!use_simd                  ? Simd::kNone
+            : kernel::avx2_available() ? Simd::kAvx2
+            : kernel::neon_available() ? Simd::kNeon
+                                       : Simd::kNone) {
   if (map.empty()) throw Error("the map is empty");
 }
 
+const char* CpuEvaluator::simd_path() const {
+  return simd_ == Simd::kAvx2 ? "AVX2" : simd_ == Simd::kNeon ? "NEON" : "";
+}
+
 std::string CpuEvaluator::device_name() const {
-  return "CPU (" + std::to_string(threads_) + " threads" + (use_avx2_ ? ", AVX2" : "") + ")";
+  const std::string simd = simd_path();
+  return "CPU (" + std::to_string(threads_) + " threads" + (simd.empty() ? "" : ", " + simd) + ")";
 }
 
 void CpuEvaluator::reserve(std::size_t particles, std::size_t points) {
@@ -84,15 +93,19 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
   const bool trilinear = model.interpolation == Interpolation::kTrilinear;
   const float exponent = model.weight_exponent;
 
-  if (!trilinear && use_avx2_) {
-    // Groups of 8 particles per gather; chunks of 64 keep the threads' shares even.
+  if (!trilinear && simd_ != Simd::kNone) {
+    // Groups of 8 (AVX2) or 4 (NEON) particles; chunks of 64 keep the threads' shares even.
     constexpr std::size_t kChunk = 64;
     const auto chunks = static_cast<std::ptrdiff_t>((n + kChunk - 1) / kChunk);
 #pragma omp parallel for num_threads(threads_) schedule(static)
     for (std::ptrdiff_t c = 0; c < chunks; ++c) {
       const std::size_t begin = static_cast<std::size_t>(c) * kChunk;
       const std::size_t end = std::min(n, begin + kChunk);
-      kernel::accumulate_nearest_avx2(map, table_.data(), p, begin, end, pts, point_count_, p.log_weight);
+      if (simd_ == Simd::kAvx2) {
+        kernel::accumulate_nearest_avx2(map, table_.data(), p, begin, end, pts, point_count_, p.log_weight);
+      } else {
+        kernel::accumulate_nearest_neon(map, table_.data(), p, begin, end, pts, point_count_, p.log_weight);
+      }
       for (std::size_t i = begin; i < end; ++i) {
         p.log_weight[i] = exponent * (product ? p.log_weight[i] : std::log(p.log_weight[i]));
       }

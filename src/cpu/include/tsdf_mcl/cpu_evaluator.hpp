@@ -11,7 +11,8 @@ namespace tsdf_mcl {
 // tolerance; the reduction runs in double over a fixed chunking, so results do not depend on the thread count.
 class CpuEvaluator final : public SensorEvaluator {
  public:
-  // use_simd = false keeps to the scalar path (tests compare the two).
+  // use_simd = false keeps to the scalar path (tests compare the two); otherwise nearest lookups take the AVX2
+  // path where the x86-64 CPU has it, the NEON path on aarch64.
   CpuEvaluator(const TsdfMap& map, int threads, bool use_simd = true);
 
   std::string backend() const override { return "cpu"; }
@@ -24,6 +25,8 @@ class CpuEvaluator final : public SensorEvaluator {
   WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                          const Eigen::Quaternionf& reference_rotation) override;
   const UpdateTimings& last_timings() const override { return timings_; }
+  // The fast path nearest lookups take: "AVX2", "NEON", or "" for the scalar path.
+  const char* simd_path() const;
 
  private:
   ParticleArrays view(int set);
@@ -31,7 +34,8 @@ class CpuEvaluator final : public SensorEvaluator {
 
   kernel::MapView map_view_;
   int threads_;
-  bool use_avx2_;
+  enum class Simd { kNone, kAvx2, kNeon };
+  Simd simd_;
   std::size_t capacity_ = 0;
   std::vector<float> sets_[2];  // 8 arrays of capacity_ floats each: x y z qw qx qy qz log_weight
   int active_ = 0;

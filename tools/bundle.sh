@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Makes a self-contained folder that runs tsdf-mcl (bench above all) on a Linux machine with nothing installed but
+# a GPU driver: the program, every shared library it loads except glibc's (libstdc++, OpenMP, Embree, HDF5, Cairo,
+# yaml-cpp, ... and the Vulkan loader libvulkan.so.1), and two scripts:
+#   tsdf-mcl       runs the program with the bundled libraries, the Vulkan loader pointed at the machine's NVIDIA
+#                  ICD (VK_ICD_FILENAMES and VK_DRIVER_FILES; set either yourself to choose another driver)
+#   run_bench.sh   simulates a short route in the built-in office, builds its map and runs
+#                  `bench --particles 50000,100000,1000000` and `bench --profile` on the GPU, JSON lines to stdout
+# glibc is not bundled (it must match the machine's kernel interface and loader): the target needs a glibc at
+# least as new as the build machine's symbols ask (the script prints that version).
+# Usage: tools/bundle.sh [BUILD_DIR (default build/ci)] [OUT_DIR (default BUILD_DIR/bundle/tsdf-mcl)]
+set -euo pipefail
+build=${1:-build/ci}
+out=${2:-$build/bundle/tsdf-mcl}
+program="$build/tools/tsdf-mcl"
+[ -x "$program" ] || { echo "bundle.sh: no $program (build first: cmake --build --preset ci)" >&2; exit 1; }
+rm -rf "$out"
+mkdir -p "$out/bin" "$out/lib"
+cp "$program" "$out/bin/tsdf-mcl"
+
+# glibc's own libraries and the dynamic loader stay the machine's.
+system='^(linux-vdso|linux-gate|ld-linux[^ ]*|libc|libm|libdl|libpthread|librt|libresolv|libutil|libanl|libmvec)\.so'
+ldd "$program" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | while read -r name path; do
+  [[ "$name" =~ $system ]] && continue
+  cp -L "$path" "$out/lib/$name"
+done
+[ -f "$out/lib/libvulkan.so.1" ] || { echo "bundle.sh: the program does not load libvulkan.so.1?" >&2; exit 1; }
+
+cat >"$out/tsdf-mcl" <<'SCRIPT'
+#!/bin/sh
+# tsdf-mcl from this folder: its own libraries, the machine's GPU driver. The Vulkan loader is pointed at the
+# NVIDIA ICD where one is installed (desktop drivers: /usr/share/vulkan/icd.d or /etc/vulkan/icd.d; Jetson's
+# JetPack: /etc/vulkan/icd.d/nvidia_icd.json) unless VK_ICD_FILENAMES or VK_DRIVER_FILES is already set; without
+# one the loader searches its usual places and `--backend auto` falls back to the CPU where it finds no GPU.
+here=$(cd "$(dirname "$0")" && pwd)
+if [ -z "${VK_ICD_FILENAMES:-}" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+  for dir in ${TSDF_MCL_ICD_DIRS:-/etc/vulkan/icd.d /usr/share/vulkan/icd.d /usr/local/share/vulkan/icd.d}; do
+    for icd in "$dir"/nvidia_icd*.json; do
+      if [ -f "$icd" ]; then
+        VK_ICD_FILENAMES=$icd
+        VK_DRIVER_FILES=$icd
+        export VK_ICD_FILENAMES VK_DRIVER_FILES
+        break 2
+      fi
+    done
+  done
+  [ -n "${VK_ICD_FILENAMES:-}" ] || echo "tsdf-mcl (bundle): no NVIDIA Vulkan ICD found; the loader searches its default places" >&2
+fi
+LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export LD_LIBRARY_PATH
+exec "$here/bin/tsdf-mcl" "$@"
+SCRIPT
+
+cat >"$out/run_bench.sh" <<'SCRIPT'
+#!/bin/sh
+# The sensor-update benchmark on this machine's GPU: a 2 m route in the built-in office, its map from the scene
+# mesh (0.05 m voxels), then bench on the vulkan and cpu backends (50k, 100k, 1M particles; JSON lines) and one
+# --profile run (per-pass GPU times, shader statistics). Usage: run_bench.sh [WORK_DIR] [bench options...]
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+work=${1:-${TMPDIR:-/tmp}/tsdf-mcl-bench}
+[ $# -gt 0 ] && shift
+mkdir -p "$work"
+if [ ! -f "$work/office.tsdf" ]; then
+  rm -rf "$work/route"
+  "$here/tsdf-mcl" simulate --scene office --route test --length 2 --start 5,5,0 -o "$work/route" >&2
+  "$here/tsdf-mcl" build-map --mesh "$work/route/scene.ply" --voxel 0.05 -o "$work/office.tsdf" >&2
+fi
+"$here/tsdf-mcl" info "$work/office.tsdf" >&2
+"$here/tsdf-mcl" bench --map "$work/office.tsdf" --dataset "$work/route" --particles 50000,100000,1000000 \
+  --backend vulkan,cpu "$@"
+"$here/tsdf-mcl" bench --map "$work/office.tsdf" --dataset "$work/route" --particles 100000 --backend vulkan \
+  --profile "$@"
+SCRIPT
+chmod +x "$out/tsdf-mcl" "$out/run_bench.sh"
+
+glibc=$(objdump -T "$out/bin/tsdf-mcl" "$out"/lib/*.so* 2>/dev/null | grep -o 'GLIBC_[0-9.]*' | sort -uV | tail -n 1)
+echo "bundle.sh: $out ($(du -sh "$out" | cut -f1), $(ls "$out/lib" | wc -l) libraries; needs ${glibc:-glibc} or newer)"
