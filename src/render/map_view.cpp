@@ -464,10 +464,14 @@ std::vector<LegendEntry> legend_entries(const std::vector<TrajectoryOverlay>& tr
     legend.push_back({t.label, mix(colors::kWhite, t.color, t.alpha),
                       t.dashed ? LegendEntry::Symbol::kDashedLine : LegendEntry::Symbol::kLine});
   }
-  if (!trajectories.empty()) {
-    legend.push_back({"start", colors::kText, LegendEntry::Symbol::kRing});
-    legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
+  // Each trajectory's start is a ring in its colour (an estimate's is its first estimate, where the search
+  // began), so the legend names one ring per trajectory.
+  for (const auto& t : trajectories) {
+    if (t.label.empty()) continue;
+    const std::string name = t.label.substr(0, t.label.find(" ("));  // without its "(final error ...)"
+    legend.push_back({name + ": start", mix(colors::kWhite, t.color, t.alpha), LegendEntry::Symbol::kRing});
   }
+  if (!trajectories.empty()) legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
   if (std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return !p.particles.particles.empty(); })) {
     legend.push_back({"particles", options.particle_color, LegendEntry::Symbol::kDot});
   }
