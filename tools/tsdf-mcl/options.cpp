@@ -135,7 +135,7 @@ std::string Options::help_text() const {
       if (s.group != group) continue;
       std::string left =
           (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
-      if (left.size() < kHelpIndent)
+      if (left.size() + 1 < kHelpIndent)
         left.resize(kHelpIndent, ' ');
       else
         left += "\n" + std::string(kHelpIndent, ' ');
