@@ -62,6 +62,23 @@ Rgb pixel_at(const tsdf_mcl::MapFigure& figure, std::size_t panel, const Vector2
   return figure.image.at(static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y())));
 }
 
+// Many panels form a grid close to a screen's shape (issue 17: a strip of five was unreadable at screen width):
+// five panels of a square room are three columns of two rows, each caption above its own panel.
+TEST(RenderMapView, ManyPanelsFormAGrid) {
+  const MapRaster raster(shared_room(), {});
+  std::vector<tsdf_mcl::MapPanel> panels(5);
+  for (std::size_t k = 0; k < panels.size(); ++k) panels[k].caption = "(" + std::to_string(k) + ")";
+  tsdf_mcl::MapViewOptions options;
+  options.metres_per_pixel = kVoxel;
+  const auto figure = tsdf_mcl::render_map_view(raster, {}, panels, options);
+  ASSERT_EQ(figure.panels.size(), 5u);
+  EXPECT_EQ(figure.panels[3].area().x(), figure.panels[0].area().x());  // the second row starts under the first
+  EXPECT_GT(figure.panels[3].area().y(), figure.panels[0].area().w());
+  EXPECT_GT(figure.panels[2].area().x(), figure.panels[1].area().z());
+  EXPECT_EQ(figure.panels[2].area().y(), figure.panels[0].area().y());
+  EXPECT_LT(figure.image.width(), 2 * figure.image.height());
+}
+
 }  // namespace
 
 TEST(RenderMapView, WallsAreObstaclesFloorsAreFree) {

@@ -21,7 +21,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 
-step() { printf '\n==> %s\n' "$*" >&2; }
+step() { printf '==> %s\n' "$*" >&2; }
 
 step "1/7 installing Debian packages (if missing)"
 bash tools/setup.sh

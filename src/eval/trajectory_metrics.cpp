@@ -65,8 +65,11 @@ TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, 
     m.has_claims = true;
     for (std::size_t i = 0; i < m.errors.size(); ++i) {
       if (!(*claims)[i]) continue;
-      ++m.claimed_converged;
       const PoseError& pe = m.errors[i];
+      if (m.claimed_converged++ == 0) {
+        m.first_claim_index = i;
+        m.first_claim_time = pe.time - m.errors.front().time;
+      }
       if (pe.translation_norm <= options.false_convergence_translation &&
           pe.rotation <= options.false_convergence_rotation) {
         continue;

@@ -464,10 +464,14 @@ std::vector<LegendEntry> legend_entries(const std::vector<TrajectoryOverlay>& tr
     legend.push_back({t.label, mix(colors::kWhite, t.color, t.alpha),
                       t.dashed ? LegendEntry::Symbol::kDashedLine : LegendEntry::Symbol::kLine});
   }
-  if (!trajectories.empty()) {
-    legend.push_back({"start", colors::kText, LegendEntry::Symbol::kRing});
-    legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
+  // Each trajectory's start is a ring in its colour (an estimate's is its first estimate, where the search
+  // began), so the legend names one ring per trajectory.
+  for (const auto& t : trajectories) {
+    if (t.label.empty()) continue;
+    const std::string name = t.label.substr(0, t.label.find(" ("));  // without its "(final error ...)"
+    legend.push_back({name + ": start", mix(colors::kWhite, t.color, t.alpha), LegendEntry::Symbol::kRing});
   }
+  if (!trajectories.empty()) legend.push_back({"end, heading", colors::kText, LegendEntry::Symbol::kArrow});
   if (std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return !p.particles.particles.empty(); })) {
     legend.push_back({"particles", options.particle_color, LegendEntry::Symbol::kDot});
   }
@@ -483,6 +487,23 @@ std::vector<LegendEntry> legend_entries(const std::vector<TrajectoryOverlay>& tr
   legend.push_back({"not observed", kUnknownColor, LegendEntry::Symbol::kBand});
   legend.push_back({"free", kFreeColor, LegendEntry::Symbol::kBand});
   return legend;
+}
+
+// Panels in a grid whose shape comes closest to a screen's (16:10), so that captions stay readable when the
+// figure is shown at screen width: a 50 x 20 m floor plan in five panels becomes two columns of three rows.
+int grid_columns(int n, int panel_w, int panel_h) {
+  int best = 1;
+  double best_error = 1e300;
+  for (int columns = 1; columns <= n; ++columns) {
+    const int rows = (n + columns - 1) / columns;
+    const double aspect = static_cast<double>(columns) * panel_w / (static_cast<double>(rows) * panel_h);
+    const double error = std::abs(std::log(aspect / 1.6));
+    if (error < best_error - 1e-9) {
+      best = columns;
+      best_error = error;
+    }
+  }
+  return best;
 }
 
 struct ColorBar {
@@ -568,7 +589,7 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
                        ? options.text_scale
                        : std::clamp(static_cast<float>(std::max(panel_w, panel_h)) / 450.0f, 1.5f, 2.5f);
 
-  // Layout, top to bottom: title, captions, panels side by side, legend and colour bars.
+  // Layout, top to bottom: title, rows of captioned panels, legend and colour bars.
   const float line = 12.0f * ts;
   const int pad = static_cast<int>(std::round(8.0f * ts));
   const bool captions = std::any_of(panels.begin(), panels.end(), [](const MapPanel& p) { return !p.caption.empty(); });
@@ -584,10 +605,14 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
   const int footer_h = io::saturated_ceil(std::max(legend_box.y(), 3.0f * line));
 
   const int n = static_cast<int>(panels.size());
-  const int panels_w = n * panel_w + (n - 1) * 2 * pad;
+  const int columns = grid_columns(n, panel_w, panel_h);
+  const int rows = (n + columns - 1) / columns;
+  const int panels_w = columns * panel_w + (columns - 1) * 2 * pad;
   const int width = 2 * pad + std::max(panels_w, io::saturated_ceil(footer_w));
-  const int panels_top = pad + title_h + (captions ? caption_h + pad / 2 : 0);
-  const int height = panels_top + panel_h + pad + footer_h + pad;
+  const int caption_block = captions ? caption_h + pad / 2 : 0;
+  const int panels_top = pad + title_h + caption_block;
+  const int row_step = panel_h + pad + caption_block;
+  const int height = panels_top + rows * row_step - caption_block + footer_h + pad;
   if (width > kMaxImageSide || height > kMaxImageSide) {
     throw Error("figure of " + std::to_string(width) + " x " + std::to_string(height) +
                 " pixels is too large: choose a coarser pixel size");
@@ -601,12 +626,13 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
   }
   const int x_start = pad + (width - 2 * pad - panels_w) / 2;
   for (int k = 0; k < n; ++k) {
-    figure.panels.push_back(base.moved_to({x_start + k * (panel_w + 2 * pad), panels_top}));
+    figure.panels.push_back(
+        base.moved_to({x_start + (k % columns) * (panel_w + 2 * pad), panels_top + (k / columns) * row_step}));
     draw_panel(image, raster, figure.panels.back(), panels[static_cast<std::size_t>(k)], trajectories, options, ts,
                pad);
   }
 
-  const float footer_y = static_cast<float>(panels_top + panel_h + pad);
+  const float footer_y = static_cast<float>(panels_top + (rows - 1) * row_step + panel_h + pad);
   // Aligned with the panels where it fits beside them, from the left margin where it is the wider part.
   float fx = static_cast<float>(x_start + footer_w <= width - pad ? x_start : pad);
   draw_legend(image, fx, footer_y, legend, ts);

@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "dataset_source.hpp"
 #include "options.hpp"
+#include "progress.hpp"
 #include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/cloud_io.hpp"
 #include "tsdf_mcl/error.hpp"
@@ -74,36 +75,22 @@ TsdfMap import_h5_isolated(const std::string& source, float truncation, std::uin
 
 namespace fs = std::filesystem;
 
-// Progress on stderr: one line rewritten in place on a terminal, a line per 10 % in logs. Nothing in the first
-// second: bad input fails within it with its error as the only line, and short builds need no progress.
+// A build stage's progress (progress.hpp: a live line on a terminal, a line every few seconds in a log). Nothing
+// in the first second: bad input fails within it with its error as the only line, and short builds need none.
 class ProgressLine {
  public:
-  explicit ProgressLine(std::string stage)
-      : stage_(std::move(stage)), tty_(::isatty(STDERR_FILENO) != 0), started_(std::chrono::steady_clock::now()) {}
-  ~ProgressLine() {
-    if (tty_ && shown_ >= 0) std::fputc('\n', stderr);
-  }
-  ProgressLine(const ProgressLine&) = delete;
-  ProgressLine& operator=(const ProgressLine&) = delete;
+  ProgressLine(Progress& progress, std::string stage)
+      : progress_(progress), stage_(std::move(stage)), started_(std::chrono::steady_clock::now()) {}
 
   void operator()(std::size_t done, std::size_t total) {
     if (std::chrono::steady_clock::now() - started_ < std::chrono::seconds(1)) return;
-    const int percent = total == 0 ? 100 : static_cast<int>(100 * done / total);
-    if (percent == shown_ || (!tty_ && percent / 10 == shown_ / 10 && shown_ >= 0)) return;
-    shown_ = percent;
-    if (tty_) {
-      std::fprintf(stderr, "\rbuild-map: %s %3d%%", stage_.c_str(), percent);
-    } else {
-      std::fprintf(stderr, "build-map: %s %d%%\n", stage_.c_str(), percent);
-    }
-    std::fflush(stderr);
+    progress_.update(done, total, stage_);
   }
 
  private:
+  Progress& progress_;
   std::string stage_;
-  bool tty_;
   std::chrono::steady_clock::time_point started_;
-  int shown_ = -1;
 };
 
 std::string format(const char* fmt, double a, double b = 0.0) {
@@ -141,11 +128,12 @@ std::vector<std::size_t> use_trajectory(Dataset& dataset, const std::vector<Stam
 int run_build_map(int argc, char** argv) {
   Options o(
       "build-map",
-      "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N] | --cloud FILE "
-      "[--trajectory FILE.tum|DIR] | --import_h5 FILE [--voxel M] [--truncation M] -o MAP\n"
-      "       tsdf-mcl build-map --bag FILE --points TOPIC --ground_truth_topic TOPIC | --trajectory FILE.tum ... -o "
-      "MAP",
-      with_bag_options({
+      "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N]\n"
+      "                          | --cloud FILE [--trajectory FILE.tum|DIR] | --import_h5 FILE\n"
+      "                          [--voxel M] [--truncation M] -o MAP\n"
+      "       tsdf-mcl build-map --bag FILE --points TOPIC --ground_truth_topic TOPIC | --trajectory FILE.tum\n"
+      "                          ... -o MAP",
+      with_verbosity_options(with_bag_options({
           {"mesh", "FILE", "", "triangle mesh (STL, PLY, OBJ; need not be watertight) to build the map from"},
           {"dataset", "DIR", "", "dataset whose scans are integrated at the poses of its poses.txt"},
           {"cloud", "FILE", "", "point cloud map (.pcd ascii/binary/binary_compressed, .ply) to build the map from"},
@@ -171,7 +159,7 @@ int run_build_map(int argc, char** argv) {
           {"max_memory", "MIB", std::to_string(limits::kDefaultBuildMemoryMiB),
            "memory budget of the build (the map and the builder's buffers); building stops with an error past it"},
           {"output", "MAP", "", "map file to write"},
-      }),
+      })),
       argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
@@ -219,6 +207,8 @@ int run_build_map(int argc, char** argv) {
   if (margin < 0.0) throw Error("--margin must not be negative");
   const std::uint64_t max_memory = std::uint64_t{o.count("max_memory", std::size_t{1} << 30)} << 20;
 
+  const Verbosity verbosity = verbosity_of(o);
+  Progress progress_out("build-map", verbosity);
   const auto started = std::chrono::steady_clock::now();
   TsdfMap map;
   std::string source;
@@ -235,8 +225,8 @@ int run_build_map(int argc, char** argv) {
     options.margin = static_cast<float>(margin);
     options.fill_free_space = !o.flag("no_free_space");
     options.max_memory_bytes = max_memory;
-    ProgressLine progress(source + " (" + std::to_string(mesh.vertices.size()) + " vertices, " +
-                          std::to_string(mesh.triangles.size()) + " triangles): signed distances");
+    ProgressLine progress(progress_out, source + " (" + std::to_string(mesh.vertices.size()) + " vertices, " +
+                                            std::to_string(mesh.triangles.size()) + " triangles): signed distances");
     map = build_map_from_mesh(mesh, options, std::ref(progress));
   } else if (o.has("cloud")) {
     source = o.text("cloud");
@@ -251,10 +241,11 @@ int run_build_map(int argc, char** argv) {
     CloudReader reader(source, max_memory);
     CloudMapReport report;
     {
-      ProgressLine progress(source + " (" + reader.format() + ", " + std::to_string(reader.size_hint()) + " points)");
+      ProgressLine progress(progress_out,
+                            source + " (" + reader.format() + ", " + std::to_string(reader.size_hint()) + " points)");
       map = build_map_from_cloud(reader, options, std::ref(progress), &report);
     }
-    std::fprintf(stderr, "%s", describe(report).c_str());
+    if (verbosity != Verbosity::kQuiet) std::fprintf(stderr, "%s", describe(report).c_str());
   } else {
     source = o.has("bag") ? o.text("bag") : o.text("dataset");
     Dataset dataset = open_dataset(o);
@@ -270,7 +261,7 @@ int run_build_map(int argc, char** argv) {
       throw Error(dataset.missing_poses() +
                   " (scans are integrated at their world_T_sensor poses; or give --trajectory FILE.tum)");
     }
-    if (!dataset.summary().empty()) std::fprintf(stderr, "build-map: %s\n", dataset.summary().c_str());
+    if (!dataset.summary().empty()) progress_out.note(dataset.summary());
     ScanMapOptions options;
     options.voxel_size = static_cast<float>(voxel);
     options.truncation = static_cast<float>(truncation);
@@ -279,18 +270,19 @@ int run_build_map(int argc, char** argv) {
     options.max_range = static_cast<float>(o.number("laser_max_range"));
     options.max_memory_bytes = max_memory;
     dataset.check_scans_not_empty(scans);
-    ProgressLine progress("integrating " + std::to_string(scans.size()) + " of " + std::to_string(dataset.size()) +
-                          " scans of " + source);
+    ProgressLine progress(progress_out, "integrating " + std::to_string(scans.size()) + " of " +
+                                            std::to_string(dataset.size()) + " scans of " + source);
     map = build_map_from_scans(dataset, scans, options, std::ref(progress));
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   save_map(map, output);
   const TsdfMap::Stats s = map.stats();
-  std::fprintf(stderr,
-               "build-map: wrote %s: %.3f m voxels, truncation %.3f m, %zu blocks + %zu free blocks, %.1f MiB, "
-               "built in %.1f s\n",
-               output.c_str(), static_cast<double>(map.voxel_size()), static_cast<double>(map.truncation()),
-               s.allocated_blocks, s.free_blocks, static_cast<double>(s.memory_bytes) / (1024.0 * 1024.0), seconds);
+  char line[600];
+  std::snprintf(line, sizeof(line),
+                "wrote %s: %.3f m voxels, truncation %.3f m, %zu blocks + %zu free blocks, %.1f MiB, built in %.1f s",
+                output.c_str(), static_cast<double>(map.voxel_size()), static_cast<double>(map.truncation()),
+                s.allocated_blocks, s.free_blocks, static_cast<double>(s.memory_bytes) / (1024.0 * 1024.0), seconds);
+  progress_out.summary(line);
   return 0;
 }
 

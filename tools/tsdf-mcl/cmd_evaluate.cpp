@@ -54,9 +54,9 @@ void plot_errors(const TrajectoryMetrics& m, const MetricsOptions& mo, const std
     write_plot_png(all, file);
     return;
   }
-  all.markers.emplace_back(m.convergence_time, "converged");
+  all.markers.emplace_back(m.convergence_time, "localized");
   const Image top = render_plot(all);
-  const Image bottom = render_plot(error_plot(m, m.convergence_index, "after convergence"));
+  const Image bottom = render_plot(error_plot(m, m.convergence_index, "from the scan localized on"));
   Image both(top.width(), top.height() + bottom.height());
   both.blit(top, 0, 0);
   both.blit(bottom, 0, top.height());
@@ -98,26 +98,67 @@ std::vector<bool> converged_claims(const std::string& report_file, const std::ve
   return claims;
 }
 
+// The same in words, for a person watching (stdout is often redirected to a file). Two tests with two words:
+// "localized from scan N" is evaluate's ground-truth test; "converged" is the filter's own flag from report.json.
+void print_verdict(const TrajectoryMetrics& m, const MetricsOptions& mo, const std::string& report_file) {
+  if (m.converged) {
+    std::fprintf(stderr,
+                 "evaluate: %zu scans; localized from scan %zu (%.1f s after the first; every estimate from there on "
+                 "within %.2f m / %.0f deg of the truth); %.1f %% of scans localized; from there on ATE %.3f m, "
+                 "rotation RMSE %.2f deg, worst %.3f m / %.2f deg\n",
+                 m.errors.size(), m.errors[m.convergence_index].truth_index, m.convergence_time,
+                 mo.max_translation_error, mo.max_rotation_error * kDeg, 100.0 * m.localized_fraction, m.ate_rmse,
+                 m.rotation_rmse * kDeg, m.max_translation_error, m.max_rotation_error * kDeg);
+  } else {
+    std::fprintf(stderr,
+                 "evaluate: %zu scans; NOT localized at the end (the last estimate is off by %.3f m / %.2f deg); "
+                 "%.1f %% of scans localized\n",
+                 m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
+                 100.0 * m.localized_fraction);
+  }
+  if (!m.has_claims) {
+    std::fprintf(stderr, "evaluate: no report.json beside the estimate: the filter's converged flags not checked\n");
+  } else if (m.claimed_converged == 0) {
+    std::fprintf(stderr, "evaluate: the filter never claimed convergence (no scan flagged converged in %s)\n",
+                 report_file.c_str());
+  } else if (m.false_convergence > 0) {
+    std::fprintf(stderr,
+                 "evaluate: FALSE CONVERGENCE: the filter flagged converged at %zu of its %zu converged scans while "
+                 "more than %.1f m or %.0f deg off (first at scan %zu, %.1f s)\n",
+                 m.false_convergence, m.claimed_converged, mo.false_convergence_translation,
+                 mo.false_convergence_rotation * kDeg, m.errors[m.first_false_index].truth_index, m.first_false_time);
+  } else {
+    std::fprintf(stderr,
+                 "evaluate: the filter flagged converged at %zu scans (first at scan %zu), each within %.1f m and "
+                 "%.0f deg of the truth: no false convergence\n",
+                 m.claimed_converged, m.errors[m.first_claim_index].truth_index, mo.false_convergence_translation,
+                 mo.false_convergence_rotation * kDeg);
+  }
+}
+
 }  // namespace
 
 int run_evaluate(int argc, char** argv) {
   Options o(
       "evaluate",
       "tsdf-mcl evaluate --estimate OUT/trajectory.tum --dataset DIR | --bag FILE --points TOPIC "
-      "--ground_truth_topic TOPIC [--plot FILE.png]",
+      "--ground_truth_topic TOPIC [--plot FILE.png]\n"
+      "Two tests, two words: \"localized from scan N\" = every estimate from scan N on lies within the\n"
+      "thresholds of the ground truth (evaluate's test); \"converged\" = the filter's own flag in\n"
+      "report.json, checked here for false claims. Angles in degrees (or with a unit: 0.1rad).",
       with_bag_options({
           {"estimate", "FILE", "", "estimated trajectory (TUM: t x y z qx qy qz qw, world_T_sensor)"},
           {"dataset", "DIR", "", "dataset whose poses.txt and times.txt are the ground truth"},
           {"plot", "FILE.png", "", "also draw the translation error per axis over time"},
           {"max_translation_error", "M", "0.3", "a scan counts as localized within this distance (m)"},
-          {"max_rotation_error", "DEG", "5", "... and within this rotation error (degrees)"},
+          {"max_rotation_error", "DEG", "5", "... and within this rotation error (degrees, or e.g. 0.1rad)"},
           {"time_tolerance", "S", "0.02",
            "estimates without an exact timestamp match take the nearest ground truth within this (s)"},
           {"report", "FILE", "",
            "localize's report.json, for its converged flags [default: report.json beside the estimate, if there]"},
           {"false_convergence_translation", "M", "1",
            "a converged flag is false where the estimate is off by more than this (m)"},
-          {"false_convergence_rotation", "DEG", "10", "... or by more than this rotation (degrees)"},
+          {"false_convergence_rotation", "DEG", "10", "... or by more than this rotation (degrees, or e.g. 0.2rad)"},
       }),
       argc, argv, 2);
   if (o.help_requested()) {
@@ -131,13 +172,14 @@ int run_evaluate(int argc, char** argv) {
   if (!dataset.has_poses()) throw Error(dataset.missing_poses() + " (ground truth)");
   MetricsOptions mo;
   mo.max_translation_error = o.number("max_translation_error");
-  mo.max_rotation_error = o.number("max_rotation_error") / kDeg;
+  mo.max_rotation_error = angle_in_degrees(o.text("max_rotation_error"), "--max_rotation_error", M_PI);
   mo.time_tolerance = o.number("time_tolerance");
   if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
     throw Error("thresholds must be positive and the time tolerance non-negative");
   }
   mo.false_convergence_translation = o.number("false_convergence_translation");
-  mo.false_convergence_rotation = o.number("false_convergence_rotation") / kDeg;
+  mo.false_convergence_rotation =
+      angle_in_degrees(o.text("false_convergence_rotation"), "--false_convergence_rotation", M_PI);
   if (!(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
     throw Error("false-convergence thresholds must be positive");
   }
@@ -160,6 +202,12 @@ int run_evaluate(int argc, char** argv) {
   j["estimate"] = estimate_file;
   j["dataset"] = dataset.dir().string();
   j["scans"] = m.errors.size();
+  // "localized" / "localized_from": evaluate's ground-truth test; "converged" / "convergence" are their former
+  // names, kept for scripts. The filter's own flag is "filter_converged".
+  j["localized"] = m.converged;
+  j["localized_from"] =
+      m.converged ? nlohmann::json{{"scan", m.errors[m.convergence_index].truth_index}, {"time_s", m.convergence_time}}
+                  : nlohmann::json(nullptr);
   j["converged"] = m.converged;
   j["localized_fraction"] = m.localized_fraction;
   j["thresholds"] = {{"translation_m", mo.max_translation_error}, {"rotation_deg", mo.max_rotation_error * kDeg}};
@@ -177,6 +225,11 @@ int run_evaluate(int argc, char** argv) {
     j["after_convergence"] = nullptr;
   }
   if (m.has_claims) {
+    j["filter_converged"] = {
+        {"claimed_scans", m.claimed_converged},
+        {"first_scan",
+         m.claimed_converged > 0 ? nlohmann::json(m.errors[m.first_claim_index].truth_index) : nlohmann::json(nullptr)},
+        {"first_time_s", m.claimed_converged > 0 ? nlohmann::json(m.first_claim_time) : nlohmann::json(nullptr)}};
     j["false_convergence"] = {
         {"report", report_file},
         {"claimed_converged_scans", m.claimed_converged},
@@ -188,6 +241,7 @@ int run_evaluate(int argc, char** argv) {
          {{"translation_m", mo.false_convergence_translation},
           {"rotation_deg", mo.false_convergence_rotation * kDeg}}}};
   } else {
+    j["filter_converged"] = nullptr;
     j["false_convergence"] = nullptr;
   }
   if (const auto plot = o.maybe("plot")) {
@@ -195,33 +249,7 @@ int run_evaluate(int argc, char** argv) {
     j["plot"] = *plot;
   }
   std::printf("%s\n", j.dump(2).c_str());
-  // The same in words, for a person watching (stdout is often redirected to a file).
-  if (m.converged) {
-    std::fprintf(stderr,
-                 "evaluate: %zu scans; converged at scan %zu (%.1f s after the first); %.1f %% localized; after "
-                 "convergence ATE %.3f m, rotation RMSE %.2f deg, worst %.3f m / %.2f deg\n",
-                 m.errors.size(), m.errors[m.convergence_index].truth_index, m.convergence_time,
-                 100.0 * m.localized_fraction, m.ate_rmse, m.rotation_rmse * kDeg, m.max_translation_error,
-                 m.max_rotation_error * kDeg);
-  } else {
-    std::fprintf(
-        stderr,
-        "evaluate: %zu scans; NOT converged (the last estimate is off by %.3f m / %.2f deg); %.1f %% localized\n",
-        m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
-        100.0 * m.localized_fraction);
-  }
-  if (m.has_claims && m.false_convergence > 0) {
-    std::fprintf(stderr,
-                 "evaluate: FALSE CONVERGENCE: the localizer said converged at %zu of its %zu converged scans while "
-                 "more than %.1f m or %.0f deg off (first at scan %zu, %.1f s)\n",
-                 m.false_convergence, m.claimed_converged, mo.false_convergence_translation,
-                 mo.false_convergence_rotation * kDeg, m.errors[m.first_false_index].truth_index, m.first_false_time);
-  } else if (m.has_claims) {
-    std::fprintf(
-        stderr,
-        "evaluate: no false convergence: every one of the %zu scans flagged converged is within %.1f m and %.0f deg\n",
-        m.claimed_converged, mo.false_convergence_translation, mo.false_convergence_rotation * kDeg);
-  }
+  print_verdict(m, mo, report_file);
   return 0;
 }
 

@@ -67,17 +67,21 @@ int run_info(int argc, char** argv) {
   std::printf("map:          %s\n", file.c_str());
   std::printf("resolution:   %.3f m voxels, blocks of %d^3 voxels\n", static_cast<double>(map.voxel_size()),
               TsdfMap::kBlockSize);
-  std::printf("truncation:   %.3f m\n", static_cast<double>(map.truncation()));
+  std::printf("truncation:   %.3f m (distances are stored within this band around surfaces)\n",
+              static_cast<double>(map.truncation()));
   std::printf("extent:       (%.2f, %.2f, %.2f) .. (%.2f, %.2f, %.2f) m, size %.2f x %.2f x %.2f m\n",
               static_cast<double>(lo.x()), static_cast<double>(lo.y()), static_cast<double>(lo.z()),
               static_cast<double>(hi.x()), static_cast<double>(hi.y()), static_cast<double>(hi.z()),
               static_cast<double>(size.x()), static_cast<double>(size.y()), static_cast<double>(size.z()));
-  std::printf("coarse index: %d x %d x %d blocks (%zu cells)\n", dims.x(), dims.y(), dims.z(),
-              map.coarse_index().size());
-  std::printf("blocks:       %zu allocated, %zu free\n", s.allocated_blocks, s.free_blocks);
+  std::printf("coarse index: %d x %d x %d blocks (%zu cells: one per block of the extent, pointing to its voxels)\n",
+              dims.x(), dims.y(), dims.z(), map.coarse_index().size());
+  std::printf(
+      "blocks:       %zu allocated (voxels stored: near surfaces), %zu free (wholly free space, one "
+      "flag, no voxels)\n",
+      s.allocated_blocks, s.free_blocks);
   std::printf("memory:       %.2f MiB (coarse index + block pool)\n", mib);
-  std::printf("known volume: %.1f m^3\n", known_m3);
-  std::printf("free volume:  %.1f m^3\n", free_m3);
+  std::printf("known volume: %.1f m^3 (observed: surfaces and free space; the rest is unknown)\n", known_m3);
+  std::printf("free volume:  %.1f m^3 (observed empty: where particles of a global search may start)\n", free_m3);
   return 0;
 }
 

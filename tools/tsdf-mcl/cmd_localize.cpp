@@ -15,6 +15,8 @@
 #include "options.hpp"
 #include "output_folder.hpp"
 #include "localize_parameters.hpp"
+#include "localize_progress.hpp"
+#include "progress.hpp"
 #include "tsdf_mcl/dataset.hpp"
 #include "tsdf_mcl/error.hpp"
 #include "tsdf_mcl/imu.hpp"
@@ -39,20 +41,25 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 // The command's own inputs, then the parameters it shares with every frontend (localize_parameters.hpp).
 std::vector<OptionSpec> localize_options() {
   std::vector<OptionSpec> specs = {
-      {"map", "FILE", "", "TSDF map (tsdf-mcl build-map)"},
-      {"dataset", "DIR", "", "dataset: scans/, times.txt, odom.txt (poses.txt is not used)"},
-      {"output", "DIR", "", "output folder for trajectory.tum and report.json"},
-      {"start", "S", "0", "first scan"},
-      {"stride", "K", "1", "take every K-th scan"},
-      {"count", "N", "0", "number of scans (0 = all from start)"},
+      {"map", "FILE", "", "TSDF map (tsdf-mcl build-map)", "input"},
+      {"dataset", "DIR", "", "dataset: scans/, times.txt, odom.txt (poses.txt is not used)", "input"},
+      {"start", "S", "0", "first scan", "input"},
+      {"stride", "K", "1", "take every K-th scan", "input"},
+      {"count", "N", "0", "number of scans (0 = all from start)", "input"},
       {"config", "FILE", "",
-       "YAML or JSON file of parameters by their option names (nested maps join with '.'); command-line flags win"},
+       "YAML or JSON file of parameters by their option names (nested maps join with '.'); command-line flags win",
+       "input"},
+      {"output", "DIR", "",
+       "output folder for trajectory.tum (every scan's estimate, the search phase included) and "
+       "report.json",
+       "output"},
       {"snapshot_every", "K", "0",
        "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl "
-       "render --particles"},
+       "render --particles",
+       "output"},
   };
   for (OptionSpec& s : localize_parameter_specs()) specs.push_back(std::move(s));
-  return specs;
+  return with_verbosity_options(std::move(specs));
 }
 
 // Every option's effective value, numbers as numbers.
@@ -82,12 +89,12 @@ nlohmann::json parameters_json(const Options& o) {
 
 int run_localize(int argc, char** argv) {
   Options o("localize",
-            "tsdf-mcl localize --map MAP --dataset DIR | --bag FILE --points TOPIC [--start S --stride K --count N] "
-            "[--particles N]\n"
-            "                       [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--backend auto|vulkan|cpu] "
-            "[--seed N]\n"
-            "                       [--config FILE] [filter parameters] -o OUT\n"
-            "Writes OUT/trajectory.tum (one line per scan, world_T_sensor) and OUT/report.json. Angles in radians.",
+            "tsdf-mcl localize --map MAP --dataset DIR | --bag FILE --points TOPIC -o OUT\n"
+            "           [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--particles N] [--config FILE] [...]\n"
+            "Writes OUT/trajectory.tum (world_T_sensor for every scan, the search phase included) and\n"
+            "OUT/report.json. Angles are in radians as in nav2 (initial_pose.yaw, update_min_a, --init's roll,\n"
+            "pitch, yaw); any angle also takes a unit: 90deg, 1.57rad. report.json and evaluate print degrees.\n"
+            "A filter parameter also comes from a --config file or, in the ROS node, the parameter server.",
             with_bag_options(localize_options()), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
@@ -124,8 +131,9 @@ int run_localize(int argc, char** argv) {
   std::size_t imu_next = 0;
   const TsdfMap map = load_map(map_file);
   Localizer localizer(map, lo);
-  if (!dataset.summary().empty()) std::fprintf(stderr, "localize: %s\n", dataset.summary().c_str());
-  std::fprintf(stderr, "localize: %s\n", localizer.backend_note().c_str());
+  Progress progress("localize", verbosity_of(o), "scans");
+  if (!dataset.summary().empty()) progress.note(dataset.summary());
+  progress.note(localizer.backend_note());
 
   std::error_code ec;
   const std::size_t snapshot_every = o.count("snapshot_every");
@@ -139,7 +147,7 @@ int run_localize(int argc, char** argv) {
   const auto report_initialization = [&] {
     const InitializationRecord& init = *localizer.initialization();
     if (!init.global) {
-      std::fprintf(stderr, "localize: %zu particles around the initial pose\n", init.particles);
+      progress.note(std::to_string(init.particles) + " particles around the initial pose");
       return;
     }
     std::string heights;
@@ -149,12 +157,14 @@ int run_localize(int argc, char** argv) {
                     c.has_height ? static_cast<double>(c.height) : NAN);
       heights += buf;
     }
-    std::fprintf(
-        stderr,
-        "localize: global search: %zu up-direction candidates from the first scan%s (sensor heights %s m); best "
-        "%zu of %zu hypotheses over %zu free-space voxels kept\n",
-        init.candidates.size(), init.gravity_source == "imu" ? " and the IMU" : "",
-        heights.empty() ? "-" : heights.c_str(), init.particles, init.hypotheses_scored, init.free_space_voxels);
+    char line[400];
+    std::snprintf(line, sizeof(line),
+                  "global search: %zu up-direction candidates from the first scan%s (sensor heights %s m); best "
+                  "%zu of %zu hypotheses over %zu free-space voxels kept",
+                  init.candidates.size(), init.gravity_source == "imu" ? " and the IMU" : "",
+                  heights.empty() ? "-" : heights.c_str(), init.particles, init.hypotheses_scored,
+                  init.free_space_voxels);
+    progress.note(line);
     if (snapshot_every > 0) write_particle_snapshot(snapshot_dir / "init.bin", localizer.snapshot());
   };
   if (lo.initial_pose) {
@@ -165,6 +175,7 @@ int run_localize(int argc, char** argv) {
   std::vector<StampedPose> trajectory;
   ReportWriter report_writer(out_dir / "scans.jsonl");
   std::size_t dropped_total = 0;
+  LocalizeNarrator narrator(progress, lo, scans.size());
   const auto t_run = Clock::now();
   for (std::size_t k = 0; k < scans.size(); ++k) {
     const std::size_t idx = scans[k];
@@ -203,17 +214,7 @@ int run_localize(int argc, char** argv) {
     }
     report_writer.add(j);
 
-    if (step.updated) {
-      std::fprintf(stderr, "[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s%s\n", k + 1,
-                   scans.size(), idx, record->points.output, step.particles, step.next_particles, step.timings.total_ms,
-                   step.estimate.converged ? "converged" : "not converged",
-                   step.injected > 0 ? (", " + std::to_string(step.injected) + " random particles").c_str() : "");
-    } else {
-      std::fprintf(
-          stderr, "[%zu/%zu] scan %zu: held by the motion gate (update_min_d / update_min_a), %zu particles, %s\n",
-          k + 1, scans.size(), idx, record->particles_before, step.estimate.converged ? "converged" : "not converged");
-    }
-    if (dropped > 0) std::fprintf(stderr, "  scan %zu: dropped %zu NaN/Inf points\n", idx, dropped);
+    narrator.scan(k, idx, *record, dropped);
   }
   const double run_s = ms_since(t_run) / 1000.0;
 
@@ -221,6 +222,7 @@ int run_localize(int argc, char** argv) {
   const RunSummary summary = localizer.summary();
   nlohmann::json report;
   report["command"] = "localize";
+  report["version"] = TSDF_MCL_VERSION;
   report["backend"] = localizer.evaluator().backend();
   report["device"] = localizer.evaluator().device_name();
   if (!localizer.evaluator().weight_layout().empty()) report["weight_layout"] = localizer.evaluator().weight_layout();
@@ -232,8 +234,12 @@ int run_localize(int argc, char** argv) {
   nlohmann::json summary_entry = summary_json(summary);
   summary_entry["particles"]["initial"] = lo.filter.initial_particles;
   summary_entry["dropped_non_finite_points"] = dropped_total;
-  summary_entry["converged_since_scan"] =
-      summary.converged_since_index ? nlohmann::json(scans[*summary.converged_since_index]) : nlohmann::json(nullptr);
+  const std::optional<std::size_t> converged_since =
+      summary.converged_since_index ? std::optional<std::size_t>(scans[*summary.converged_since_index]) : std::nullopt;
+  summary_entry["converged_since_scan"] = converged_since ? nlohmann::json(*converged_since) : nlohmann::json(nullptr);
+  // The filter's own flag, first raised (evaluate's "localized from" is the ground-truth test).
+  summary_entry["first_converged_scan"] =
+      narrator.first_converged_scan() ? nlohmann::json(*narrator.first_converged_scan()) : nlohmann::json(nullptr);
   summary_entry["converged_since_s"] = summary.converged_since_time
                                            ? nlohmann::json(*summary.converged_since_time - dataset.time(scans.front()))
                                            : nlohmann::json(nullptr);
@@ -241,13 +247,15 @@ int run_localize(int argc, char** argv) {
   report["summary"] = summary_entry;
   report_writer.write(report, out_dir / "report.json");
   output.commit();
-  std::fprintf(stderr,
-               "localize: %zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu "
-               "initial, %zu..%zu, %zu final; %s; wrote %s and %s\n",
-               scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
-               lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
-               summary.converged ? "converged" : "NOT converged", (output.folder() / "trajectory.tum").c_str(),
-               (output.folder() / "report.json").c_str());
+  char line[1024];
+  std::snprintf(line, sizeof(line),
+                "%zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu initial, "
+                "%zu..%zu, %zu final; %s; wrote %s and %s",
+                scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
+                lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
+                narrator.verdict(summary, converged_since).c_str(), (output.folder() / "trajectory.tum").c_str(),
+                (output.folder() / "report.json").c_str());
+  progress.summary(line);
   return 0;
 }
 

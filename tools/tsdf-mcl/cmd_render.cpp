@@ -87,9 +87,9 @@ int run_render(int argc, char** argv) {
       "tsdf-mcl render --map MAP [--z_min M --z_max M | --slice Z] [--ground_truth DIR]\n"
       "                       [--estimate FILE.tum,..] [--particles FILE,.. [--captions A,..]] [--pixel M]\n"
       "                       [--title TEXT] -o OUT.png\n"
-      "Draws the map from above like a floor plan (obstacles coloured by height, free space white, unobserved\n"
-      "space grey) with the trajectories and particles over it; several particle snapshots become panels side\n"
-      "by side.",
+      "Draws the map from above like a floor plan (obstacles coloured by height, free space white,\n"
+      "unobserved space grey) with the trajectories and particles over it; several particle snapshots\n"
+      "become panels in a grid.",
       render_options(), argc, arg_ptrs.data(), 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());

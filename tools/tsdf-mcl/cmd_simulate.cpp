@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "options.hpp"
+#include "progress.hpp"
 #include "tsdf_mcl/atomic_file.hpp"
 #include "tsdf_mcl/bag_writer.hpp"
 #include "tsdf_mcl/error.hpp"
@@ -26,11 +27,19 @@ sim::Platform platform_of(const std::string& name) {
   throw Error("--platform must be ground, handheld or drone, not '" + name + "'");
 }
 
-// "X,Y,YAW" (m, m, deg) -> x, y, yaw in rad.
+// "X,Y,YAW" (m, m, deg or with a unit) -> x, y, yaw in rad.
 Eigen::Vector3d start_of(const Options& o) {
-  const std::vector<double> v = o.numbers("start");
+  const std::vector<std::string> v = o.list("start");
   if (v.size() != 3) throw Error("--start expects X,Y,YAW (m, m, deg), got '" + o.text("start") + "'");
-  return {v[0], v[1], v[2] * M_PI / 180.0};
+  double xy[2];
+  for (int i = 0; i < 2; ++i) {
+    char* end = nullptr;
+    xy[i] = std::strtod(v[i].c_str(), &end);
+    if (v[i].empty() || *end != '\0' || !std::isfinite(xy[i])) {
+      throw Error("--start expects X,Y,YAW (m, m, deg), got '" + o.text("start") + "'");
+    }
+  }
+  return {xy[0], xy[1], angle_in_degrees(v[2], "--start's yaw", 2.0 * M_PI)};
 }
 
 // "X,Y;X,Y;..." -> points.
@@ -60,7 +69,7 @@ int run_simulate(int argc, char** argv) {
             "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
             "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
             "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
-            {
+            with_verbosity_options({
                 {"scene", "office|symmetric|warehouse|MESH", "office",
                  "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
                  "a 40 x 25 m warehouse with pallet racks), or a mesh file (STL/PLY/OBJ, metres, z up)"},
@@ -73,7 +82,8 @@ int run_simulate(int argc, char** argv) {
                  "mapping: covers the whole floor (to build a map); test: a route over a ramp, chosen by the seed"},
                 {"seed", "N", "1", "route, obstacles and noise; each seed gives another test route"},
                 {"start", "X,Y,YAW", "",
-                 "test route: start at X,Y (m) facing YAW (deg, 0 = +x) instead of where the seed says"},
+                 "test route: start at X,Y (m) facing YAW (degrees, or e.g. 1.57rad; 0 = +x) instead of where the "
+                 "seed says"},
                 {"waypoints", "X,Y;X,Y;...", "",
                  "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
                 {"platform", "ground|handheld|drone", "ground",
@@ -100,7 +110,7 @@ int run_simulate(int argc, char** argv) {
                 {"bag", "FILE.bag", "",
                  "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
                  "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
-            },
+            }),
             argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
@@ -162,35 +172,34 @@ int run_simulate(int argc, char** argv) {
     };
   }
 
-  const bool tty = isatty(fileno(stderr)) != 0;
-  auto last_report = std::chrono::steady_clock::now();
+  Progress progress("simulate", verbosity_of(o), "scans");
   s.progress = [&](std::size_t done, std::size_t total) {
     // Announced once the scene and route are ready, so that bad input ends with a single error line.
     if (done == 1) {
-      std::fprintf(stderr, "simulate: scene %s, lidar %s on %s, %s route (seed %llu) -> %s\n", s.scene.c_str(),
-                   s.lidar.c_str(), o.text("platform").c_str(), route.c_str(), static_cast<unsigned long long>(s.seed),
-                   out.c_str());
+      char line[512];
+      std::snprintf(line, sizeof(line), "scene %s, lidar %s on %s, %s route (seed %llu) -> %s", s.scene.c_str(),
+                    s.lidar.c_str(), o.text("platform").c_str(), route.c_str(), static_cast<unsigned long long>(s.seed),
+                    out.c_str());
+      progress.note(line);
     }
-    const auto now = std::chrono::steady_clock::now();
-    if (done != total && now - last_report < std::chrono::seconds(tty ? 0 : 5)) return;
-    last_report = now;
-    std::fprintf(stderr, tty ? "\rsimulate: scan %zu/%zu" : "simulate: scan %zu/%zu\n", done, total);
-    if (tty && done == total) std::fprintf(stderr, "\n");
+    progress.update(done, total, "");
   };
   const sim::SimulationSummary r = sim::simulate(s, out);
   if (bag) bag->close();
-  std::fprintf(stderr,
-               "simulate: %zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s\n",
-               r.scans, r.points, r.route_length_m, r.duration_s, r.traversable_area_m2, r.wall_time_s);
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "%zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s", r.scans,
+                r.points, r.route_length_m, r.duration_s, r.traversable_area_m2, r.wall_time_s);
+  progress.summary(line);
   if (r.landmark_first_seen_scan) {
-    std::fprintf(stderr, "simulate: the landmark is first in view in scan %zu (landmark_points.txt)\n",
-                 *r.landmark_first_seen_scan);
+    progress.note("the landmark is first in view in scan " + std::to_string(*r.landmark_first_seen_scan) +
+                  " (landmark_points.txt)");
   } else if (r.has_landmark) {
-    std::fprintf(stderr, "simulate: the landmark is in view in no scan\n");
+    progress.note("the landmark is in view in no scan");
   }
   if (bag) {
-    std::fprintf(stderr, "simulate: wrote %s (%zu scans on /points; tf odom -> base_link -> lidar; /ground_truth)\n",
-                 o.text("bag").c_str(), bag->scans());
+    progress.summary("wrote " + o.text("bag") + " (" + std::to_string(bag->scans()) +
+                     " scans on /points; tf odom -> base_link -> lidar; /ground_truth)");
   }
   return 0;
 }

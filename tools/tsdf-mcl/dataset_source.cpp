@@ -14,7 +14,7 @@ const char* const kBagOnly[] = {"points",    "odom_frame",         "base_frame",
 
 std::vector<OptionSpec> with_bag_options(std::vector<OptionSpec> specs) {
   const BagOptions d;
-  const std::vector<OptionSpec> bag = {
+  std::vector<OptionSpec> bag = {
       {"bag", "FILE", "", "ROS 1 bag instead of --dataset (docs/bags.md); needs --points"},
       {"points", "TOPIC", "",
        "--bag: sensor_msgs/PointCloud2 topic of the scans (their header stamps are the scan times)"},
@@ -30,6 +30,8 @@ std::vector<OptionSpec> with_bag_options(std::vector<OptionSpec> specs) {
       {"tf_static_topic", "TOPIC", d.tf_static_topic, "--bag: tf2_msgs/TFMessage topic of fixed frames"},
   };
   const auto it = std::find_if(specs.begin(), specs.end(), [](const OptionSpec& s) { return s.name == "dataset"; });
+  // In a grouped --help (localize) the bag is input beside the dataset.
+  for (OptionSpec& b : bag) b.group = it == specs.end() ? std::string() : it->group;
   specs.insert(it == specs.end() ? specs.end() : std::next(it), bag.begin(), bag.end());
   return specs;
 }

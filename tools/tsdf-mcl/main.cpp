@@ -4,9 +4,11 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/localizer_parameters.hpp"
 
 namespace {
 
@@ -18,7 +20,7 @@ struct Command {
 
 constexpr Command kCommands[] = {
     {"build-map", tsdf_mcl::cli::run_build_map,
-     "build a TSDF map from a mesh, a dataset's scans, a point cloud or a reference HDF5 map"},
+     "build a TSDF map from a mesh, a dataset's scans, a point cloud or an HDF5 map"},
     {"info", tsdf_mcl::cli::run_info, "print a map's resolution, extent, blocks, memory and known/free volume"},
     {"simulate", tsdf_mcl::cli::run_simulate, "simulate a LiDAR driving through a scene; writes a dataset"},
     {"localize", tsdf_mcl::cli::run_localize,
@@ -30,8 +32,10 @@ constexpr Command kCommands[] = {
 };
 
 void print_usage(std::FILE* out) {
-  std::fprintf(out, "usage: tsdf-mcl <command> [options]   (tsdf-mcl <command> --help for its options)\n\ncommands:\n");
-  for (const auto& c : kCommands) std::fprintf(out, "  %-10s %s\n", c.name, c.summary);
+  std::fprintf(out,
+               "usage: tsdf-mcl <command> [options]   (tsdf-mcl <command> --help for its options)\n"
+               "       tsdf-mcl --version\n\ncommands:\n");
+  for (const auto& c : kCommands) std::fprintf(out, "  %-13s %s\n", c.name, c.summary);
 }
 
 }  // namespace
@@ -40,6 +44,10 @@ int main(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
     print_usage(argc < 2 ? stderr : stdout);
     return argc < 2 ? 2 : 0;
+  }
+  if (!std::strcmp(argv[1], "--version") || !std::strcmp(argv[1], "version")) {
+    std::printf("tsdf-mcl %s\n", TSDF_MCL_VERSION);
+    return 0;
   }
   for (const auto& c : kCommands) {
     if (std::strcmp(argv[1], c.name) != 0) continue;
@@ -57,7 +65,10 @@ int main(int argc, char** argv) {
       return 3;
     }
   }
-  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'\n", argv[1]);
-  print_usage(stderr);
+  std::vector<std::string> names;
+  for (const auto& c : kCommands) names.push_back(c.name);
+  const std::string close = tsdf_mcl::did_you_mean(argv[1], names, "tsdf-mcl ");
+  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'%s; tsdf-mcl --help lists the commands\n", argv[1],
+               close.c_str());
   return 2;
 }

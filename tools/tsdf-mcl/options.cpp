@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/localizer_parameters.hpp"
 
 namespace tsdf_mcl::cli {
 
@@ -62,22 +63,86 @@ const OptionSpec& Options::spec(const std::string& name) const {
         throw Error("unknown option --" + name + ": options are spelled with underscores, --" + snake);
     }
   }
-  throw Error("unknown option --" + name + " (see tsdf-mcl " + command_ + " --help)");
+  std::vector<std::string> known;
+  for (const auto& s : specs_) known.push_back(s.name);
+  const std::string close = did_you_mean(name, known, "--");
+  throw Error("unknown option --" + name + (close.empty() ? " (see tsdf-mcl " + command_ + " --help)" : close));
 }
+
+namespace {
+
+constexpr std::size_t kHelpWidth = 100;
+constexpr std::size_t kHelpIndent = 30;
+
+// `text` wrapped at kHelpWidth, every line after the first indented to `indent`; words longer than a line stay
+// whole.
+std::string wrap(const std::string& text, std::size_t first_column, std::size_t indent) {
+  std::string out;
+  std::size_t column = first_column;
+  std::istringstream words(text);
+  bool line_empty = true;
+  for (std::string word; words >> word;) {
+    if (!line_empty && column + 1 + word.size() > kHelpWidth) {
+      out += "\n" + std::string(indent, ' ');
+      column = indent;
+      line_empty = true;
+    }
+    if (!line_empty) {
+      out += ' ';
+      ++column;
+    }
+    out += word;
+    column += word.size();
+    line_empty = false;
+  }
+  return out;
+}
+
+// The sections of a grouped --help, in this order; options of other groups follow.
+const std::vector<std::string> kGroupOrder = {"input",  "initialization", "output",
+                                              "filter", "sensor model",   "advanced"};
+
+}  // namespace
 
 std::string Options::help_text() const {
   std::ostringstream out;
-  out << "usage: " << usage_ << "\n\noptions:\n";
+  // The usage's lines as written, each wrapped at the width with its continuation indented under the command.
+  std::istringstream usage("usage: " + usage_);
+  for (std::string line; std::getline(usage, line);) {
+    if (line.size() <= kHelpWidth) {
+      out << line << "\n";
+      continue;
+    }
+    const std::size_t lead = line.find_first_not_of(' ');
+    const std::size_t indent = line.rfind("usage:", 0) == 0 ? 4 : std::min<std::size_t>(lead + 4, 40);
+    out << std::string(lead, ' ') << wrap(line.substr(lead), lead, indent) << "\n";
+  }
+  std::vector<std::string> groups;
+  for (const auto& g : kGroupOrder) {
+    for (const auto& s : specs_) {
+      if (s.group == g) {
+        groups.push_back(g);
+        break;
+      }
+    }
+  }
   for (const auto& s : specs_) {
-    std::string left =
-        (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
-    if (left.size() < 30)
-      left.resize(30, ' ');
-    else
-      left += "\n" + std::string(30, ' ');
-    out << left << s.help;
-    if (!s.default_value.empty()) out << " [default: " << s.default_value << "]";
-    out << "\n";
+    if (std::find(groups.begin(), groups.end(), s.group) == groups.end()) groups.push_back(s.group);
+  }
+  for (const std::string& group : groups) {
+    out << "\n" << (group.empty() ? "options" : group + " options") << ":\n";
+    for (const auto& s : specs_) {
+      if (s.group != group) continue;
+      std::string left =
+          (s.name == "output" ? "  -o, --" : "  --") + s.name + (s.value_name.empty() ? "" : " " + s.value_name);
+      if (left.size() + 1 < kHelpIndent)
+        left.resize(kHelpIndent, ' ');
+      else
+        left += "\n" + std::string(kHelpIndent, ' ');
+      std::string help = s.help;
+      if (!s.default_value.empty()) help += " [default: " + s.default_value + "]";
+      out << left << wrap(help, kHelpIndent, kHelpIndent) << "\n";
+    }
   }
   return out.str();
 }
@@ -166,6 +231,12 @@ void Options::expect_positional(std::size_t n, const std::string& what) const {
   if (positional_.size() != n) {
     throw Error("expected " + what + " (see tsdf-mcl " + command_ + " --help)");
   }
+}
+
+double angle_in_degrees(const std::string& text, const std::string& what, double max_abs) {
+  const bool has_unit =
+      text.size() > 3 && (text.compare(text.size() - 3, 3, "deg") == 0 || text.compare(text.size() - 3, 3, "rad") == 0);
+  return parse_angle(has_unit ? text : text + "deg", what, max_abs);
 }
 
 void Options::set_default_from_config(const std::string& name, const std::string& value) {

@@ -53,4 +53,8 @@ class Options {
   bool help_ = false;
 };
 
+// An angle as text in degrees, or with an explicit unit ("90deg", "1.57rad"); radians back. Error naming `what`
+// for a non-number or a magnitude beyond max_abs radians.
+double angle_in_degrees(const std::string& text, const std::string& what, double max_abs);
+
 }  // namespace tsdf_mcl::cli

@@ -28,7 +28,9 @@ struct PoseError {
 };
 
 struct TrajectoryMetrics {
-  std::vector<PoseError> errors;      // one per estimate, in its order
+  std::vector<PoseError> errors;  // one per estimate, in its order
+  // "Localized from estimate N": every estimate from N on is within the thresholds (the ground-truth test; the
+  // filter's own `converged` flag is the claims below). Named converged for the metrics.json compatibility.
   bool converged = false;             // some estimate from which all later ones are localized
   std::size_t convergence_index = 0;  // first such estimate
   double convergence_time = 0.0;      // its time minus the first estimate's
@@ -44,6 +46,8 @@ struct TrajectoryMetrics {
   bool has_claims = false;
   std::size_t claimed_converged = 0;
   std::size_t false_convergence = 0;
+  std::size_t first_claim_index = 0;  // estimate index of the first converged flag (if any)
+  double first_claim_time = 0.0;      // its time minus the first estimate's
   std::size_t first_false_index = 0;  // estimate index of the first false claim (if any)
   double first_false_time = 0.0;      // its time minus the first estimate's
 };
