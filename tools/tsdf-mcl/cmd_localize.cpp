@@ -204,14 +204,15 @@ int run_localize(int argc, char** argv) {
     report_writer.add(j);
 
     if (step.updated) {
-      std::fprintf(stderr, "[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s%s\n", k + 1,
-                   scans.size(), idx, record->points.output, step.particles, step.next_particles, step.timings.total_ms,
-                   step.estimate.converged ? "converged" : "not converged",
+      std::fprintf(stderr,
+                   "[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s, map coverage %.2f%s\n",
+                   k + 1, scans.size(), idx, record->points.output, step.particles, step.next_particles,
+                   step.timings.total_ms, to_string(step.state), step.estimate.coverage,
                    step.injected > 0 ? (", " + std::to_string(step.injected) + " random particles").c_str() : "");
     } else {
-      std::fprintf(
-          stderr, "[%zu/%zu] scan %zu: held by the motion gate (update_min_d / update_min_a), %zu particles, %s\n",
-          k + 1, scans.size(), idx, record->particles_before, step.estimate.converged ? "converged" : "not converged");
+      std::fprintf(stderr,
+                   "[%zu/%zu] scan %zu: held by the motion gate (update_min_d / update_min_a), %zu particles, %s\n",
+                   k + 1, scans.size(), idx, record->particles_before, to_string(step.state));
     }
     if (dropped > 0) std::fprintf(stderr, "  scan %zu: dropped %zu NaN/Inf points\n", idx, dropped);
   }
@@ -241,13 +242,18 @@ int run_localize(int argc, char** argv) {
   report["summary"] = summary_entry;
   report_writer.write(report, out_dir / "report.json");
   output.commit();
+  std::string states;
+  for (std::size_t s = 0; s < kTrackStates; ++s) {
+    if (summary.state_scans[s] == 0) continue;
+    states += " " + std::string(to_string(static_cast<TrackState>(s))) + " " + std::to_string(summary.state_scans[s]);
+  }
   std::fprintf(stderr,
                "localize: %zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu "
-               "initial, %zu..%zu, %zu final; %s; wrote %s and %s\n",
+               "initial, %zu..%zu, %zu final; %s; scans by state:%s; wrote %s and %s\n",
                scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
                lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
-               summary.converged ? "converged" : "NOT converged", (output.folder() / "trajectory.tum").c_str(),
-               (output.folder() / "report.json").c_str());
+               summary.converged ? "converged" : "NOT converged", states.c_str(),
+               (output.folder() / "trajectory.tum").c_str(), (output.folder() / "report.json").c_str());
   return 0;
 }
 
