@@ -139,6 +139,7 @@ void ParticleFilter::start(std::size_t count) {
   convergence_.reset();
   keeper_.reset();
   restore_pending_ = false;
+  trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
   implausible_streak_ = 0;
@@ -512,6 +513,11 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
                       top.std_rotation <= o.converged_std_angle;
 }
 
+double ParticleFilter::judged_ratio() const {
+  if (trusted_track()) return estimate_.inlier_ratio;
+  return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
+}
+
 double ParticleFilter::evidence_dead_band() const {
   return 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
          static_cast<double>(params_.sensor.sigma_hit * params_.sensor.sigma_hit);
@@ -577,7 +583,7 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
 TrackState ParticleFilter::classify(const FilterStep& step) const {
   if (step.implausible || step.random_share > 1.0 - params_.estimate.converged_weight) return TrackState::kLost;
   if (estimate_.converged) return TrackState::kConverged;
-  if (keeper_.active() && estimate_.coverage < params_.convergence.min_coverage) return TrackState::kUnmapped;
+  if (trusted_track() && estimate_.coverage < params_.convergence.min_coverage) return TrackState::kUnmapped;
   const std::vector<Hypothesis>& h = estimate_.hypotheses;
   if (step.holding || step.challenged || (h.size() >= 2 && h[1].weight >= params_.ambiguous_weight))
     return TrackState::kAmbiguous;
@@ -739,9 +745,8 @@ double ParticleFilter::judge_fit(FilterStep& step) {
   // all points: a place whose points fly out of the map is no better for it.
   ever_concentrated_ = ever_concentrated_ || step.concentrated;
   const bool covered = !(estimate_.coverage < params_.convergence.min_coverage);
-  const double covered_share = std::isnan(estimate_.coverage) ? 1.0 : estimate_.coverage;
-  const double ratio = keeper_.active() ? estimate_.inlier_ratio : estimate_.inlier_ratio * covered_share;
-  const bool judged = !keeper_.active() || covered;
+  const double ratio = judged_ratio();
+  const bool judged = !trusted_track() || covered;
   const bool implausible =
       params_.recovery_min_inliers > 0.0 && ever_concentrated_ && judged && ratio < params_.recovery_min_inliers;
   implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
@@ -836,9 +841,9 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   // on a correct one (the likelihood-based fit dips by a third whenever the cloud spreads in a turn). The
   // averages start at the first convergence: a belief spread over the map fits badly by nature, and a long-term
   // average that remembers that phase would set the bar too low to ever notice a lost track.
-  // Where the map covers too little of the scan the fit says nothing: the averages wait.
-  if (ever_converged_ && !(estimate_.coverage < params_.convergence.min_coverage))
-    step.random_share = recovery_.update(estimate_.inlier_ratio);
+  // Where the map covers too little of the scan at a trusted track the fit says nothing: the averages wait.
+  if (ever_converged_ && (!trusted_track() || !(estimate_.coverage < params_.convergence.min_coverage)))
+    step.random_share = recovery_.update(judged_ratio());
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
   const double implausible_share = judge_fit(step);
@@ -850,6 +855,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
                                             step.random_share > 1.0 - params_.estimate.converged_weight,
                                             challengers_weighed_ || params_.challenger_candidates == 0);
   step.challenged = convergence_.challenged(estimate_);
+  if (!(estimate_.coverage < params_.convergence.min_coverage)) trusted_ = estimate_.converged;
   if (!keeper_.active() && estimate_.converged) {
     keeper_.start(estimate_.pose);
     track_covariance_ = estimate_.covariance;

@@ -60,8 +60,9 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     // Grid units per metre along the ray, so that `s` below counts metres.
     const Eigen::Vector3f direction =
         length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
-    // The last known value the ray met: its sign says whether an unknown endpoint lies behind a surface.
-    std::int32_t last_known = TsdfMap::kUnknownValue;
+    // Whether the ray met the inside of a surface (a negative distance) on its way: then an endpoint in unknown
+    // space lies behind a surface the map has, and is a miss, not unobserved.
+    bool met_surface = false;
     bool through = false;
     if (length > end_margin) {
       // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
@@ -73,7 +74,7 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
           s += voxel;
           continue;
         }
-        last_known = v;
+        met_surface = met_surface || v < 0;
         if (v <= inside_limit) {
           through = true;
           break;
@@ -88,11 +89,11 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
       for (float s = voxel; s <= end_margin + 0.5f * voxel && s < length; s += voxel) {
         const std::int32_t v = value_at(end - s * direction);
         if (v != TsdfMap::kUnknownValue) {
-          last_known = v;
+          met_surface = met_surface || v < 0;
           break;
         }
       }
-      evidence = last_known != TsdfMap::kUnknownValue && last_known < 0;
+      evidence = met_surface;
     }
     if (!evidence) continue;
     ++fit.observed;

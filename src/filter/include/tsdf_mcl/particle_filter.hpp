@@ -244,6 +244,12 @@ class ParticleFilter {
   void keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
   TrackState classify(const FilterStep& step) const;
   double evidence_dead_band() const;  // what a point inlier_distance off a surface loses (nats)
+  // A track that was converged at the last update where the map covered the scan: only such a track tracks
+  // through unmapped space (its fit is judged on the observed points, and not at all where the map covers too
+  // little). Any other belief is judged on the inlier share of all its points: a lost track that drifts out of
+  // the map must not pass for one in an unmapped room.
+  bool trusted_track() const { return keeper_.active() && trusted_; }
+  double judged_ratio() const;
   // Particles from the proposal that join the next generation (recovery, challengers).
   struct Injection {
     std::size_t count = 0;
@@ -275,6 +281,7 @@ class ParticleFilter {
   ConvergenceMonitor convergence_;
   TrackKeeper keeper_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
+  bool trusted_ = false;          // converged at the last update with enough map coverage (trusted_track())
   Matrix6d track_covariance_ = Matrix6d::Zero();
   GroupResampler group_resampler_;
 

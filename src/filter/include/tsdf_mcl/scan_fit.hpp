@@ -25,8 +25,9 @@ double inlier_ratio(const TsdfMap& map, const Pose& world_T_sensor, const std::v
 //
 // Map evidence: a point whose endpoint lands in space the map never observed (an unallocated block, the unknown
 // sentinel) after its ray crossed only free or unknown space says nothing about the pose: a room the mapping run
-// skipped, the world beyond the map's edge. It is `unobserved`. An endpoint in unknown space right behind a
-// surface (the inside of a wall, which a TSDF leaves unknown beyond its band) is evidence: a miss.
+// skipped, the world beyond the map's edge. It is `unobserved`. An endpoint in unknown space behind a surface
+// the ray met on its way (a negative distance: the inside of a wall, which a TSDF leaves unknown beyond its
+// band, or the world outside an outer wall) is evidence: a miss.
 struct RayFit {
   std::size_t points = 0;
   std::size_t observed = 0;     // points with map evidence (everything but the unobserved ones)
