@@ -76,7 +76,7 @@ mapping_args() {  # extra simulate flags of a scene's mapping run
 test_args() {  # extra simulate flags of a scene's test runs
   case "$1" in
     office-skip) echo "--start 20,10.2,0 --waypoints 42,10.2;42,15" ;;
-    symmetric-skip) echo "--start 12,8,0 --waypoints 33,8;33,13" ;;
+    symmetric-skip) echo "--start 12,8,0 --waypoints 29,8;29,12.5" ;;
     office-moved) echo "--scene_seed 2" ;;
   esac
 }
