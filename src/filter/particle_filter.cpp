@@ -747,12 +747,16 @@ double ParticleFilter::judge_fit(FilterStep& step) {
   const bool covered = !(estimate_.coverage < params_.convergence.min_coverage);
   const double ratio = judged_ratio();
   const bool judged = !trusted_track() || covered;
-  const bool implausible =
-      params_.recovery_min_inliers > 0.0 && ever_concentrated_ && judged && ratio < params_.recovery_min_inliers;
+  // A belief that is not a trusted track and whose scan the map hardly covers is off the map, not in an unmapped
+  // room: a lost belief drifts there, where nothing speaks against it.
+  const bool off_map = !trusted_track() && !covered;
+  const bool implausible = params_.recovery_min_inliers > 0.0 && ever_concentrated_ && judged &&
+                           (ratio < params_.recovery_min_inliers || off_map);
   implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
   step.implausible = implausible;
   if (implausible_streak_ < 2) return 0.0;
-  return std::clamp(1.0 - ratio / params_.recovery_min_inliers, 0.0, 1.0);
+  const double share = std::clamp(1.0 - ratio / params_.recovery_min_inliers, 0.0, 1.0);
+  return off_map ? std::max(share, 1.0 - estimate_.coverage / params_.convergence.min_coverage) : share;
 }
 
 FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
