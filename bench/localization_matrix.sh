@@ -13,6 +13,10 @@
 # the localization output (OUT/RUN/NAME, default loc) so several builds' results sit side by side.
 #
 # Scenes: the built-in ones, `avz` (../shared/data/avz/avz_no_roof.stl with a ground slab) or a mesh path.
+# Changed maps (issue 16): `office-skip` and `symmetric-skip` map the building with a mapping route that never
+# enters the east wing's north rooms, and their test routes end in one of those rooms (the symmetric building's
+# skipped room has a mapped twin in the west wing); `office-moved` maps with furniture seed 1 and tests in the
+# same office furnished by seed 2 (furniture moved after mapping).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -52,12 +56,28 @@ results="$out/results-$tag.jsonl"
 
 scene_args() {  # the simulate flags of a scene name
   case "$1" in
+    office-skip|office-moved) echo "--scene office" ;;
+    symmetric-skip) echo "--scene symmetric" ;;
     office|symmetric|warehouse) echo "--scene $1" ;;
     avz)
       local mesh=../shared/data/avz/avz_no_roof.stl
       [ -e "$mesh" ] || { echo "localization_matrix.sh: $mesh is absent (the avz scene needs ../shared/data)" >&2; return 1; }
       echo "--scene $mesh --ground_plane 0" ;;
     *) echo "--scene $1" ;;
+  esac
+}
+
+mapping_args() {  # extra simulate flags of a scene's mapping run
+  case "$1" in
+    office-skip) echo "--skip_areas 36,11.7,50,20" ;;
+    symmetric-skip) echo "--skip_areas 26,9.4,40,16" ;;
+  esac
+}
+test_args() {  # extra simulate flags of a scene's test runs
+  case "$1" in
+    office-skip) echo "--start 20,10.2,0 --waypoints 42,10.2;42,15" ;;
+    symmetric-skip) echo "--start 12,8,0 --waypoints 29,8;29,12.5" ;;
+    office-moved) echo "--scene_seed 2" ;;
   esac
 }
 
@@ -75,7 +95,7 @@ for scene in "${scene_list[@]}"; do
       echo "matrix: mapping $scene with $lidar" >&2
       rm -rf "$out/$stag-$lidar-mapping"
       # shellcheck disable=SC2086
-      "$cli" simulate $sargs --lidar "$lidar" --route mapping --seed 1 -o "$out/$stag-$lidar-mapping" >/dev/null 2>"$map.log"
+      "$cli" simulate $sargs $(mapping_args "$scene") --lidar "$lidar" --route mapping --seed 1 -o "$out/$stag-$lidar-mapping" >/dev/null 2>"$map.log"
       "$cli" build-map --dataset "$out/$stag-$lidar-mapping" -o "$map" >/dev/null 2>>"$map.log"
       rm -rf "$out/$stag-$lidar-mapping/scans"  # the map is what later runs need
     fi
@@ -87,7 +107,7 @@ for scene in "${scene_list[@]}"; do
           rm -rf "$run"
           mkdir -p "$run"
           # shellcheck disable=SC2086
-          "$cli" simulate $sargs --lidar "$lidar" --route test --platform "$platform" --seed "$seed" \
+          "$cli" simulate $sargs $(test_args "$scene") --lidar "$lidar" --route test --platform "$platform" --seed "$seed" \
             --walkers "$walkers" --length "$length" -o "$run/test" >/dev/null 2>"$run/simulate.log"
         fi
         rm -rf "${run:?}/$tag"

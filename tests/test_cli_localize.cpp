@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "tsdf_mcl/track_state.hpp"
 #include "filter_test_scene.hpp"
 #include "cli_test_support.hpp"
 #include "office_cli_fixture.hpp"
@@ -131,6 +132,18 @@ TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   EXPECT_EQ(first["particles"], 20000);
   EXPECT_TRUE(report["summary"]["final_converged"].get<bool>());
   EXPECT_LE(report["summary"]["particles"]["final"].get<int>(), 2000);
+  // The state and the map coverage per scan and in the summary (docs/filter.md: where the map runs out).
+  const auto& last = report["scans"].back();
+  EXPECT_EQ(last["state"], "converged");
+  EXPECT_GT(last["coverage"].get<double>(), 0.9);
+  EXPECT_EQ(report["summary"]["final_state"], "converged");
+  std::size_t by_state = 0;
+  for (const auto& [name, count] : report["summary"]["scans_by_state"].items()) {
+    EXPECT_TRUE(parse_track_state(name).has_value()) << name;
+    by_state += count.get<std::size_t>();
+  }
+  EXPECT_EQ(by_state, 24u);
+  EXPECT_NE(r.err.find("scans by state: "), std::string::npos) << r.err;
 
   const CliResult e = run_cli(
       out, "evaluate --estimate " + o + "/trajectory.tum --dataset " + f.dataset + " --plot " + o + "/errors.png");

@@ -22,42 +22,6 @@ constexpr double kScanPeriod = 0.5;  // s
 
 using test::Box;
 
-Box box(float x0, float y0, float z0, float x1, float y1, float z1) {
-  return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
-}
-
-// Two identical rooms at the ends of a corridor, the building symmetric under a half turn about (12, 4): every
-// view from one wing is also the view from the other. The corridor has a niche on each side (each the other's
-// image); only the north one holds a cabinet, visible from the corridor between x ~ 9.7 and 12.5 and from
-// neither room. Interior x 0..24, y 0..8, z 0..2.6.
-std::vector<Box> twin_wing_boxes(bool with_feature) {
-  std::vector<Box> half = {
-      box(-0.2f, -0.2f, -0.2f, 24.2f, 8.2f, 0.0f),  // floor (symmetric by itself)
-      box(-0.2f, -0.2f, 2.6f, 24.2f, 8.2f, 2.8f),   // ceiling
-      box(-0.2f, -0.2f, 0.0f, 0.0f, 8.2f, 2.6f),    // west wall
-      box(-0.2f, -0.2f, 0.0f, 24.2f, 0.0f, 2.6f),   // south wall (the north wall is its image)
-      box(6.0f, 0.0f, 0.0f, 6.2f, 3.5f, 2.6f),      // wall of room A, door y 3.5..4.5
-      box(6.0f, 4.5f, 0.0f, 6.2f, 8.0f, 2.6f),
-      box(6.2f, 5.0f, 0.0f, 10.0f, 5.2f, 2.6f),  // corridor north wall, niche x 10..12
-      box(12.0f, 5.0f, 0.0f, 17.8f, 5.2f, 2.6f),
-      box(9.8f, 5.2f, 0.0f, 10.0f, 7.0f, 2.6f),  // niche walls
-      box(12.0f, 5.2f, 0.0f, 12.2f, 7.0f, 2.6f),
-      box(9.8f, 7.0f, 0.0f, 12.2f, 7.2f, 2.6f),
-      box(2.0f, 1.5f, 0.0f, 2.4f, 1.9f, 2.6f),  // pillar in room A
-      box(0.0f, 6.0f, 0.0f, 0.6f, 8.0f, 1.9f),  // cabinet in room A
-      box(3.0f, 5.5f, 0.7f, 4.5f, 6.5f, 0.8f),  // table top in room A
-  };
-  std::vector<Box> boxes;
-  for (const Box& b : half) {
-    boxes.push_back(b);
-    // The half turn about (12, 4): (x, y) -> (24 - x, 8 - y).
-    boxes.push_back(Box{Eigen::Vector3f(24.0f - b.hi.x(), 8.0f - b.hi.y(), b.lo.z()),
-                        Eigen::Vector3f(24.0f - b.lo.x(), 8.0f - b.lo.y(), b.hi.z())});
-  }
-  if (with_feature) boxes.push_back(box(10.3f, 6.3f, 0.0f, 11.7f, 7.0f, 1.5f));  // the one difference
-  return boxes;
-}
-
 Pose mirrored(const Pose& p) {
   Pose m = Pose::Identity();
   m.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix() * p.linear();
@@ -202,7 +166,7 @@ TEST(GlobalSearch, LocalizesWithoutPriorsAndClaimsConvergenceOnlyWhenRight) {
 // hold both (a hypothesis at the true pose and one at its mirror image) and never claim convergence; after it,
 // converge at the true pose.
 TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
-  const std::vector<Box> boxes = twin_wing_boxes(true);
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
   const TsdfMap map =
       test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
   const std::vector<Pose> truth = twin_wing_route();

@@ -4,6 +4,8 @@
 #include <omp.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 #include "filter_test_scene.hpp"
@@ -79,6 +81,12 @@ FilterRun run_filter(ParticleFilter& filter, const std::vector<std::size_t>& sca
     r.steps.push_back(filter.update(kScanPeriod * static_cast<double>(k), w.points[i],
                                     with_odometry ? std::optional<Pose>(odom) : std::nullopt));
     r.scans.push_back(i);
+    if (std::getenv("TSDF_MCL_TEST_DEBUG")) {
+      const FilterStep& s = r.steps.back();
+      std::fprintf(stderr, "step %zu: err %.2f %s cov %.2f inl %.2f impl %d share %.2f wf %.2f ws %.2f inj %zu\n", k,
+                   test::translation_error(s.estimate.pose, w.truth[i]), to_string(s.state), s.estimate.coverage,
+                   s.estimate.inlier_ratio, s.implausible, s.random_share, s.w_fast, s.w_slow, s.injected);
+    }
   }
   return r;
 }

@@ -29,6 +29,7 @@ struct PyResult {
   double time = 0.0;
   std::uint64_t index = 0;
   std::string state;
+  double coverage = 0.0;  // share of the scan's points with map evidence at the estimate
   bool updated = false, resampled = false, converged = false;
   PyHypothesis estimate;
   std::vector<PyHypothesis> hypotheses;
@@ -42,23 +43,14 @@ PyHypothesis hypothesis_of(const Hypothesis& h) {
   return {h.pose, h.covariance, h.weight, h.std_position, h.std_rotation, h.inlier_ratio, h.particles};
 }
 
-// The ROS node's diagnostic states: converged, lost (a concentrated belief that fits badly), ambiguous (a second
-// hypothesis holds at least 10 %), else searching.
-std::string state_of(const FilterStep& step) {
-  const PoseEstimate& e = step.estimate;
-  if (e.converged) return "converged";
-  if (step.implausible) return "lost";
-  if (e.hypotheses.size() >= 2 && e.hypotheses[1].weight >= 0.1) return "ambiguous";
-  return "searching";
-}
-
 PyResult result_of(const ScanRecord& r, double process_ms) {
   const FilterStep& s = r.step;
   const PoseEstimate& e = s.estimate;
   PyResult out;
   out.time = r.time;
   out.index = r.index;
-  out.state = state_of(s);
+  out.state = to_string(s.state);  // the filter's own classification (track_state.hpp)
+  out.coverage = e.coverage;
   out.updated = s.updated;
   out.resampled = s.resampled;
   out.converged = e.converged;
@@ -238,7 +230,11 @@ void register_results(py::module_& m) {
   py::class_<PyResult>(m, "Result", "What one Localizer.process call did")
       .def_readonly("time", &PyResult::time)
       .def_readonly("index", &PyResult::index, "the scan's number in this run")
-      .def_readonly("state", &PyResult::state, "converged, ambiguous, searching or lost")
+      .def_readonly("state", &PyResult::state,
+                    "searching, tracking, ambiguous, converged, unmapped (tracking through space the map never "
+                    "observed) or lost")
+      .def_readonly("coverage", &PyResult::coverage,
+                    "map coverage: share of the scan's points with map evidence at the estimate")
       .def_readonly("converged", &PyResult::converged)
       .def_readonly("updated", &PyResult::updated, "False: the motion gate held the scan; only the estimate moved")
       .def_readonly("resampled", &PyResult::resampled)

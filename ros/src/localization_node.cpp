@@ -442,13 +442,9 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
   std::string state = "searching";
   std::string hypotheses;
   if (record) {
+    // The library classifies (track_state.hpp); the node only reports it.
     const PoseEstimate& e = record->step.estimate;
-    if (e.converged)
-      state = "converged";
-    else if (record->step.implausible)
-      state = "lost";
-    else if (e.hypotheses.size() >= 2 && e.hypotheses[1].weight >= 0.1)
-      state = "ambiguous";
+    state = to_string(record->step.state);
     char buf[160];
     for (std::size_t i = 0; i < e.hypotheses.size() && i < 5; ++i) {
       const Hypothesis& h = e.hypotheses[i];
@@ -484,6 +480,7 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
   if (record) {
     add("particles", std::to_string(record->step.particles));
     add("inlier_ratio", std::to_string(record->step.estimate.inlier_ratio));
+    add("map_coverage", std::to_string(record->step.estimate.coverage));
   }
   add("backend", localizer_->evaluator().backend());
   diagnostic_msgs::DiagnosticArray array;

@@ -8,6 +8,7 @@ namespace tsdf_mcl {
 
 void ConvergenceOptions::validate() const {
   if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0)) throw Error("converged_min_inliers must lie in [0, 1]");
+  if (!(min_coverage >= 0.0 && min_coverage <= 1.0)) throw Error("converged_min_coverage must lie in [0, 1]");
   if (min_updates == 0) throw Error("converged_min_updates must be at least 1");
   if (!(max_jump_m > 0.0) || !std::isfinite(max_jump_m)) throw Error("convergence: max_jump_m must be positive");
   if (!(max_jump_rad > 0.0) || !std::isfinite(max_jump_rad)) throw Error("convergence: max_jump_rad must be positive");
@@ -36,6 +37,12 @@ void ConvergenceMonitor::restart_after_wrong_lock() {
   jumped_ = true;
 }
 
+namespace {
+// The share of the whole scan a hypothesis explains: a competitor whose points fly out of the map does not
+// explain them (its inlier ratio counts only the points the map observed there). NaN coverage: not computed.
+double explained(const Hypothesis& h) { return std::isnan(h.coverage) ? h.inlier_ratio : h.inlier_ratio * h.coverage; }
+}  // namespace
+
 bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
   if (e.hypotheses.empty()) return false;
   const Hypothesis& top = e.hypotheses.front();
@@ -44,7 +51,7 @@ bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
     const bool elsewhere = (h.pose.translation() - top.pose.translation()).norm() > options_.max_jump_m ||
                            rotation_angle_between(h.pose.linear(), top.pose.linear()) > options_.max_jump_rad;
     if (elsewhere && h.weight >= options_.competitor_min_weight &&
-        h.inlier_ratio >= top.inlier_ratio - options_.competitor_margin) {
+        explained(h) >= explained(top) - options_.competitor_margin) {
       return true;
     }
   }
@@ -53,7 +60,8 @@ bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
 
 bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const Pose& motion, bool lost,
                                 bool searched) {
-  const bool plausible = e.inlier_ratio >= options_.min_inlier_ratio;
+  // A NaN coverage (not computed) does not hold convergence back.
+  const bool plausible = e.inlier_ratio >= options_.min_inlier_ratio && !(e.coverage < options_.min_coverage);
   const Pose predicted = last_ * motion;
   const bool same_place = (predicted.translation() - e.pose.translation()).norm() <= options_.max_jump_m &&
                           rotation_angle_between(predicted.linear(), e.pose.linear()) <= options_.max_jump_rad;

@@ -1,6 +1,7 @@
 #include "tsdf_mcl/particle_filter.hpp"
 
 #include <algorithm>
+#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -73,6 +74,8 @@ void FilterParameters::validate() const {
   if (!(challenger_interval >= 0.0) || !std::isfinite(challenger_interval))
     throw Error("challenger_interval must not be negative");
   convergence.validate();
+  track.validate();
+  if (!(ambiguous_weight >= 0.0 && ambiguous_weight <= 1.0)) throw Error("ambiguous_weight must lie in [0, 1]");
   global_init.validate();
   global_search.validate();
   local_init.validate();
@@ -88,6 +91,7 @@ ParticleFilter::ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, c
       estimator_(params.estimate),
       recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin),
       convergence_(params.convergence),
+      keeper_(params.track),
       subset_first_(params.subset_first) {
   params_.validate();
   if (map.empty()) throw Error("the map is empty");
@@ -133,12 +137,16 @@ void ParticleFilter::start(std::size_t count) {
   injected_begin_ = injected_end_ = 0;
   recovery_.reset();
   convergence_.reset();
+  keeper_.reset();
+  restore_pending_ = false;
+  trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
   implausible_streak_ = 0;
   last_challenge_time_ = -1e300;
   challengers_weighed_ = false;
   estimate_ = PoseEstimate{};
+  state_ = TrackState::kSearching;
 }
 
 void ParticleFilter::initialize_global() {
@@ -383,6 +391,8 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   std::vector<double> evidence(h.size() + 1, 0.0);
   std::vector<Pose> refined(h.size());
   std::vector<std::vector<double>> point_log(h.size());
+  std::vector<std::vector<std::uint8_t>> observed(h.size());
+  std::vector<RayFit> fits(h.size());
   std::size_t reference = 0;  // the best-fitting hypothesis
   std::vector<double> totals(h.size(), 0.0);
   // Each hypothesis's heaviest particle: a second start for the refinement. A mode's mean sits off its place
@@ -419,6 +429,7 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
         point_log[r].swap(candidate_log);
       }
     }
+    fits[r] = ray_fit(map_, refined[r], points, params_.inlier_distance, 0.4f, &observed[r]);
   }
   for (std::size_t r = 0; r < h.size(); ++r) {
     if (totals[r] > totals[reference]) reference = r;
@@ -430,15 +441,13 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   // scans, those differences were a random walk that decided between identical places (within a few hundred
   // scans in the symmetric test building). A feature only one of them has (a cabinet) still moves its points by
   // the whole hit-versus-miss ratio of the model.
-  const double dead_band = 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
-                           static_cast<double>(plain.sigma_hit * plain.sigma_hit);
+  const double dead_band = evidence_dead_band();
+  // Only points with map evidence under both places count (scan_fit.hpp: paired_evidence): a point in a room the
+  // map never observed must not make the mapped look-alike of that room the better place.
   for (std::size_t r = 0; r < h.size(); ++r) {
-    double paired = 0.0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const double d = point_log[r][i] - point_log[reference][i];
-      paired += std::copysign(std::max(std::abs(d) - dead_band, 0.0), d);
-    }
-    evidence[r] = (totals[reference] + paired) / count;
+    const PairedEvidence paired =
+        paired_evidence(point_log[r], observed[r], point_log[reference], observed[reference], dead_band);
+    evidence[r] = (totals[reference] + paired.sum) / count;
   }
   {
     const ParticleArrays p = evaluator_.particles();
@@ -470,9 +479,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   for (std::size_t r = 0; r < h.size(); ++r) {
     h[r].weight = group_share_[r];
     h[r].pose = refined[r];
-    const RayFit fit = ray_fit(map_, h[r].pose, points, params_.inlier_distance);
-    h[r].inlier_ratio = fit.inlier_ratio();
-    h[r].see_through_ratio = fit.see_through_ratio();
+    h[r].inlier_ratio = fits[r].inlier_ratio();
+    h[r].coverage = fits[r].coverage();
+    h[r].see_through_ratio = fits[r].see_through_ratio();
     rank[r] = static_cast<std::int32_t>(r);
   }
   std::stable_sort(rank.begin(), rank.end(), [&](std::int32_t a, std::int32_t b) {
@@ -487,6 +496,8 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
     shares[r] = group_share_[static_cast<std::size_t>(rank[r])];
   }
   for (std::size_t i = 0; i < n; ++i) group_[i] = new_index[static_cast<std::size_t>(group_[i])];
+  top_log_.swap(point_log[static_cast<std::size_t>(rank[0])]);
+  top_observed_.swap(observed[static_cast<std::size_t>(rank[0])]);
   group_share_ = shares;
   h = std::move(sorted);
 
@@ -500,8 +511,86 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   estimate_.std_rotation = top.std_rotation;
   estimate_.inlier_ratio = top.inlier_ratio;
   estimate_.see_through_ratio = top.see_through_ratio;
+  estimate_.coverage = top.coverage;
   step.concentrated = top.weight >= o.converged_weight && top.std_position <= o.converged_std_xyz &&
                       top.std_rotation <= o.converged_std_angle;
+}
+
+double ParticleFilter::judged_ratio() const {
+  if (trusted_track()) return estimate_.inlier_ratio;
+  return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
+}
+
+double ParticleFilter::evidence_dead_band() const {
+  return 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
+         static_cast<double>(params_.sensor.sigma_hit * params_.sensor.sigma_hit);
+}
+
+void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points,
+                                FilterStep& step) {
+  if (!keeper_.active() || estimate_.hypotheses.empty()) return;
+  const Hypothesis& top = estimate_.hypotheses.front();
+  const Pose continuation = refine_pose(map_, keeper_.predict(delta), points);
+  const ConvergenceOptions& c = params_.convergence;
+  const bool continues = (top.pose.translation() - continuation.translation()).norm() <= c.max_jump_m &&
+                         rotation_angle_between(top.pose.linear(), continuation.linear()) <= c.max_jump_rad;
+  double evidence = 0.0;
+  bool track_implausible = false;
+  RayFit fit;
+  if (!continues) {
+    // The challenger (the dominant hypothesis) against the track's continuation, point by point on the points
+    // both observe, in the units the hypotheses' shares move by (weigh_hypotheses).
+    EndpointModel plain = params_.sensor;
+    plain.weight_exponent = 1.0f;
+    std::vector<double> log;
+    const Eigen::Quaternionf q(Eigen::Quaterniond(continuation.linear()).cast<float>());
+    point_log_likelihoods(map_, plain, continuation.translation().cast<float>(), q, points, log);
+    std::vector<std::uint8_t> observed;
+    fit = ray_fit(map_, continuation, points, params_.inlier_distance, 0.4f, &observed);
+    const PairedEvidence e = paired_evidence(top_log_, top_observed_, log, observed, evidence_dead_band());
+    evidence = params_.hypothesis_evidence_points * e.sum / static_cast<double>(points.size());
+    track_implausible = params_.recovery_min_inliers > 0.0 && !(fit.coverage() < c.min_coverage) &&
+                        fit.inlier_ratio() < params_.recovery_min_inliers;
+  }
+  const TrackKeeper::Decision d = keeper_.update(delta, continuation, continues, top.pose, evidence, track_implausible);
+  step.challenge_evidence = keeper_.challenge_evidence();
+  step.challenge_travel = keeper_.challenge_travel();
+  if (d != TrackKeeper::Decision::kHold && d != TrackKeeper::Decision::kRestore) {
+    track_covariance_ = top.covariance;
+    return;
+  }
+  // Unproven: the estimate follows the track, carried by the odometry, its covariance growing by the motion
+  // noise of each update (refined on the scan where the map has something to say).
+  const MotionNoise noise = motion_noise(params_.motion, delta, dt);
+  const double horizontal = static_cast<double>(noise.sigma_along) * noise.sigma_along +
+                            static_cast<double>(noise.sigma_across) * noise.sigma_across;
+  track_covariance_(0, 0) += horizontal;
+  track_covariance_(1, 1) += horizontal;
+  track_covariance_(2, 2) += static_cast<double>(noise.sigma_vertical) * noise.sigma_vertical;
+  track_covariance_(3, 3) += static_cast<double>(noise.sigma_roll) * noise.sigma_roll;
+  track_covariance_(4, 4) += static_cast<double>(noise.sigma_pitch) * noise.sigma_pitch;
+  track_covariance_(5, 5) += static_cast<double>(noise.sigma_yaw) * noise.sigma_yaw;
+  estimate_.pose = continuation;
+  estimate_.covariance = track_covariance_;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> position(track_covariance_.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation(track_covariance_.bottomRightCorner<3, 3>());
+  estimate_.std_position = std::sqrt(std::max(position.eigenvalues().maxCoeff(), 0.0));
+  estimate_.std_rotation = std::sqrt(std::max(rotation.eigenvalues().maxCoeff(), 0.0));
+  estimate_.inlier_ratio = fit.inlier_ratio();
+  estimate_.coverage = fit.coverage();
+  estimate_.see_through_ratio = fit.see_through_ratio();
+  step.holding = true;
+  if (d == TrackKeeper::Decision::kRestore) restore_pending_ = true;
+}
+
+TrackState ParticleFilter::classify(const FilterStep& step) const {
+  if (step.implausible || step.random_share > 1.0 - params_.estimate.converged_weight) return TrackState::kLost;
+  if (estimate_.converged) return TrackState::kConverged;
+  if (trusted_track() && estimate_.coverage < params_.convergence.min_coverage) return TrackState::kUnmapped;
+  const std::vector<Hypothesis>& h = estimate_.hypotheses;
+  if (step.holding || step.challenged || (h.size() >= 2 && h[1].weight >= params_.ambiguous_weight))
+    return TrackState::kAmbiguous;
+  return keeper_.active() ? TrackState::kTracking : TrackState::kSearching;
 }
 
 double ParticleFilter::belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const {
@@ -530,6 +619,12 @@ ParticleFilter::Injection ParticleFilter::plan_injection(double time, const Filt
     in.candidates =
         step.implausible ? std::max(in.count, std::min(10 * in.count, params_.global_search.candidates)) : in.count;
     in.share = step.random_share;
+  } else if (restore_pending_ && keeper_.active()) {
+    // A disproven challenger took the belief off the track: half of it goes back there, tightly around it.
+    in.count = std::min(max, std::max<std::size_t>(params_.hypothesis_min_particles, params_.kld.min_particles));
+    in.candidates = in.count;
+    in.share = 0.5;
+    in.around = keeper_.pose();
   } else if (params_.challenger_candidates > 0 && ever_concentrated_ &&
              time - last_challenge_time_ >= params_.challenger_interval) {
     in.candidates = params_.challenger_candidates;
@@ -610,7 +705,16 @@ void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection
     dst.qz[j] = src.qz[a];
   }
   if (injected > 0) {
-    if (injection.candidates > injected)
+    if (injection.around) {
+      const ParticleArrays at{dst.x + kept,  dst.y + kept,  dst.z + kept,          dst.qw + kept,      dst.qx + kept,
+                              dst.qy + kept, dst.qz + kept, dst.log_weight + kept, dst.capacity - kept};
+      LocalInitSpread tight;
+      tight.sigma_xy = 0.1;
+      tight.sigma_z = 0.05;
+      tight.sigma_yaw = 0.05;
+      tight.sigma_roll_pitch = 0.02;
+      sample_local(at, injected, *injection.around, tight, params_.seed, step_);
+    } else if (injection.candidates > injected)
       search(injection.candidates, injected, points, dst, kept);
     else
       proposal().sample(dst, kept, kept + injected, params_.seed, step_);
@@ -639,13 +743,23 @@ void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection
 double ParticleFilter::judge_fit(FilterStep& step) {
   // Absolute: once the belief has concentrated, a dominant hypothesis that explains too little of the scan
   // is wrong, however steady (a running average that started at a wrong lock would call it normal).
+  // The ratio judged: over the points with map evidence while a track that was right carries on where the map
+  // covers enough of the scan; where it covers too little (unmapped space) no verdict. Without such a track, over
+  // all points: a place whose points fly out of the map is no better for it.
   ever_concentrated_ = ever_concentrated_ || step.concentrated;
-  const bool implausible =
-      params_.recovery_min_inliers > 0.0 && ever_concentrated_ && estimate_.inlier_ratio < params_.recovery_min_inliers;
+  const bool covered = !(estimate_.coverage < params_.convergence.min_coverage);
+  const double ratio = judged_ratio();
+  const bool judged = !trusted_track() || covered;
+  // A belief that is not a trusted track and whose scan the map hardly covers is off the map, not in an unmapped
+  // room: a lost belief drifts there, where nothing speaks against it.
+  const bool off_map = !trusted_track() && !covered;
+  const bool implausible = params_.recovery_min_inliers > 0.0 && ever_concentrated_ && judged &&
+                           (ratio < params_.recovery_min_inliers || off_map);
   implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
   step.implausible = implausible;
   if (implausible_streak_ < 2) return 0.0;
-  return std::clamp(1.0 - estimate_.inlier_ratio / params_.recovery_min_inliers, 0.0, 1.0);
+  const double share = std::clamp(1.0 - ratio / params_.recovery_min_inliers, 0.0, 1.0);
+  return off_map ? std::max(share, 1.0 - estimate_.coverage / params_.convergence.min_coverage) : share;
 }
 
 FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
@@ -688,6 +802,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   if (!moved) {
     estimate_.pose = last_estimate_pose_ * delta;
     step.estimate = estimate_;
+    step.state = state_;
     step.next_particles = count_;
     step.timings.total_ms = ms_since(t_start);
     return step;
@@ -733,26 +848,36 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   // on a correct one (the likelihood-based fit dips by a third whenever the cloud spreads in a turn). The
   // averages start at the first convergence: a belief spread over the map fits badly by nature, and a long-term
   // average that remembers that phase would set the bar too low to ever notice a lost track.
-  if (ever_converged_) step.random_share = recovery_.update(estimate_.inlier_ratio);
+  // Where the map covers too little of the scan at a trusted track the fit says nothing: the averages wait.
+  if (ever_converged_ && (!trusted_track() || !(estimate_.coverage < params_.convergence.min_coverage)))
+    step.random_share = recovery_.update(judged_ratio());
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
   const double implausible_share = judge_fit(step);
   step.random_share = std::max(step.random_share, implausible_share);
   // Recovery moving more of the belief elsewhere than converged_weight allows outside the dominant mode: lost.
   challengers_weighed_ = challengers_weighed_ || last_challenge_time_ > -1e300;
-  estimate_.converged = convergence_.update(estimate_, step.concentrated, delta,
+  keep_track(delta, has_update_ ? time - last_time_ : 0.0, points, step);
+  estimate_.converged = convergence_.update(estimate_, step.concentrated && !step.holding, delta,
                                             step.random_share > 1.0 - params_.estimate.converged_weight,
                                             challengers_weighed_ || params_.challenger_candidates == 0);
   step.challenged = convergence_.challenged(estimate_);
+  if (!(estimate_.coverage < params_.convergence.min_coverage)) trusted_ = estimate_.converged;
+  if (!keeper_.active() && estimate_.converged) {
+    keeper_.start(estimate_.pose);
+    track_covariance_ = estimate_.covariance;
+  }
   ever_converged_ = ever_converged_ || estimate_.converged;
   if (implausible_share > 0.0) {
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
+    keeper_.reset();
     ever_converged_ = false;
     recovery_.reset();
     convergence_.restart_after_wrong_lock();
     challengers_weighed_ = false;
     last_challenge_time_ = -1e300;
   }
+  step.state = state_ = classify(step);
   step.estimate = estimate_;
   step.timings.reduce_ms = ms_since(t0);
 
@@ -794,6 +919,9 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
       resampled = true;
       if (step.random_share > 0.0) {
         step.injected = injected;
+      } else if (injection.around) {
+        step.restored = injected;
+        restore_pending_ = false;
       } else if (injected > 0) {
         last_challenge_time_ = time;
         step.challengers = injected;

@@ -1,5 +1,6 @@
 #include "tsdf_mcl/scan_fit.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "tsdf_mcl/endpoint_kernel.hpp"
@@ -29,9 +30,10 @@ double inlier_ratio(const TsdfMap& map, const Pose& pose, const std::vector<Eige
 }
 
 RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, float max_distance,
-               float end_margin) {
+               float end_margin, std::vector<std::uint8_t>* observed) {
   RayFit fit;
   fit.points = points.size();
+  if (observed) observed->assign(points.size(), 0);
   if (points.empty() || map.empty()) return fit;
   const kernel::MapView view(map);
   const float voxel = map.voxel_size();
@@ -47,33 +49,72 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     const float gg[3] = {g.x(), g.y(), g.z()};
     return kernel::sample_nearest(view, gg);
   };
-  for (const Eigen::Vector3f& p : points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f& p = points[i];
     // The endpoint as the sensor update computes it, so that "inlier" means what the likelihood saw.
     float g[3];
     kernel::to_grid(rm, t, view.inv_voxel, p.x(), p.y(), p.z(), g);
     const Eigen::Vector3f end(g[0], g[1], g[2]);
     const std::int32_t at_end = kernel::sample_nearest(view, g);
-    if (at_end != TsdfMap::kUnknownValue && std::abs(at_end) <= near_limit) ++fit.inliers;
     const float length = p.norm();
-    if (!(length > end_margin)) continue;
-    const Eigen::Vector3f direction = (end - origin) / (length * view.inv_voxel);  // grid units per metre
-    // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
-    // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
-    const float stop = length - end_margin;
-    for (float s = 0.0f; s < stop;) {
-      const std::int32_t v = value_at(origin + s * direction);
-      if (v == TsdfMap::kUnknownValue) {
-        s += voxel;
-        continue;
+    // Grid units per metre along the ray, so that `s` below counts metres.
+    const Eigen::Vector3f direction =
+        length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
+    // Whether the ray met the inside of a surface (a negative distance) on its way: then an endpoint in unknown
+    // space lies behind a surface the map has, and is a miss, not unobserved.
+    bool met_surface = false;
+    bool through = false;
+    if (length > end_margin) {
+      // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
+      // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
+      const float stop = length - end_margin;
+      for (float s = 0.0f; s < stop;) {
+        const std::int32_t v = value_at(origin + s * direction);
+        if (v == TsdfMap::kUnknownValue) {
+          s += voxel;
+          continue;
+        }
+        met_surface = met_surface || v < 0;
+        if (v <= inside_limit) {
+          through = true;
+          break;
+        }
+        s += std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
       }
-      if (v <= inside_limit) {
-        ++fit.see_through;
-        break;
-      }
-      s += std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
     }
+    if (through) ++fit.see_through;
+    bool evidence = at_end != TsdfMap::kUnknownValue || through;
+    if (!evidence) {
+      // The last end_margin before the endpoint, voxel by voxel backwards: a surface just in front of it.
+      for (float s = voxel; s <= end_margin + 0.5f * voxel && s < length; s += voxel) {
+        const std::int32_t v = value_at(end - s * direction);
+        if (v != TsdfMap::kUnknownValue) {
+          met_surface = met_surface || v < 0;
+          break;
+        }
+      }
+      evidence = met_surface;
+    }
+    if (!evidence) continue;
+    ++fit.observed;
+    if (observed) (*observed)[i] = 1;
+    if (at_end != TsdfMap::kUnknownValue && std::abs(at_end) <= near_limit) ++fit.inliers;
   }
   return fit;
+}
+
+PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vector<std::uint8_t>& observed_a,
+                               const std::vector<double>& log_b, const std::vector<std::uint8_t>& observed_b,
+                               double dead_band) {
+  PairedEvidence e;
+  const std::size_t n = std::min({log_a.size(), log_b.size(), observed_a.size(), observed_b.size()});
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!observed_a[i] || !observed_b[i]) continue;
+    const double d = log_a[i] - log_b[i];
+    e.sum += std::copysign(std::max(std::abs(d) - dead_band, 0.0), d);
+    ++e.shared;
+  }
+  return e;
 }
 
 Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations) {

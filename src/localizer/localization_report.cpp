@@ -73,7 +73,15 @@ nlohmann::json scan_json(const ScanRecord& r) {
   j["std_rotation_deg"] = e.std_rotation * kDeg;
   j["inlier_ratio"] = number_or_null(e.inlier_ratio);
   j["see_through_ratio"] = number_or_null(e.see_through_ratio);
+  j["coverage"] = number_or_null(e.coverage);
+  j["state"] = to_string(step.state);
   if (step.updated) {
+    j["holding"] = step.holding;
+    if (step.holding) {
+      j["challenge_evidence"] = step.challenge_evidence;
+      j["challenge_travel_m"] = step.challenge_travel;
+    }
+    j["restored"] = step.restored;
     j["concentrated"] = step.concentrated;
     j["implausible"] = step.implausible;
     nlohmann::json hypotheses = nlohmann::json::array();
@@ -84,7 +92,8 @@ nlohmann::json scan_json(const ScanRecord& r) {
                             {"std_position_m", h.std_position},
                             {"std_rotation_deg", h.std_rotation * kDeg},
                             {"inlier_ratio", number_or_null(h.inlier_ratio)},
-                            {"see_through_ratio", number_or_null(h.see_through_ratio)}});
+                            {"see_through_ratio", number_or_null(h.see_through_ratio)},
+                            {"coverage", number_or_null(h.coverage)}});
     }
     j["hypotheses"] = std::move(hypotheses);
   }
@@ -118,9 +127,14 @@ nlohmann::json initialization_json(const InitializationRecord& r) {
 
 nlohmann::json summary_json(const RunSummary& s) {
   const auto optional = [](const auto& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
+  nlohmann::json states = nlohmann::json::object();
+  for (std::size_t k = 0; k < kTrackStates; ++k) states[to_string(static_cast<TrackState>(k))] = s.state_scans[k];
   return {{"scans", s.scans},
           {"filter_updates", s.updates},
           {"final_converged", s.converged},
+          {"final_state", to_string(s.state)},
+          {"scans_by_state", states},
+          {"coverage_min", s.updates ? nlohmann::json(s.coverage_min) : nlohmann::json(nullptr)},
           {"converged_since_time", optional(s.converged_since_time)},
           {"converged_since_index", optional(s.converged_since_index)},
           {"particles", {{"min", s.particles_min}, {"max", s.particles_max}, {"final", s.particles_final}}},

@@ -99,7 +99,9 @@ const ScanRecord& Localizer::process(double time, const std::vector<Eigen::Vecto
 
   ++scans_;
   const FilterStep& step = record_.step;
+  ++state_scans_[static_cast<std::size_t>(step.state)];
   if (step.updated) {
+    if (step.estimate.coverage < coverage_min_) coverage_min_ = step.estimate.coverage;
     ++updates_;
     if (update_ms_.size() == kUpdateTimes) update_ms_.erase(update_ms_.begin());
     update_ms_.push_back(step.timings.total_ms);
@@ -123,6 +125,9 @@ RunSummary Localizer::summary() const {
   s.scans = scans_;
   s.updates = updates_;
   s.converged = filter_->estimate().converged;
+  s.state = filter_->state();
+  s.state_scans = state_scans_;
+  s.coverage_min = coverage_min_;
   s.converged_since_time = converged_since_time_;
   s.converged_since_index = converged_since_index_;
   s.particles_min = min_particles_;

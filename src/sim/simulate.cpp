@@ -75,6 +75,11 @@ void validate(const SimulationOptions& o) {
           "a start and waypoints shape test routes; a mapping route covers the whole floor");
   require(!o.start || o.start->allFinite(), "the route start must be finite");
   for (const Eigen::Vector2d& w : o.waypoints) require(w.allFinite(), "waypoints must be finite");
+  require(o.skip_areas.empty() || o.route == RouteKind::mapping, "skip areas shape mapping routes, not test routes");
+  for (const auto& [lo, hi] : o.skip_areas) {
+    require(lo.allFinite() && hi.allFinite() && (lo.array() < hi.array()).all(),
+            "a skip area needs finite X0 < X1 and Y0 < Y1");
+  }
 }
 
 bool is_built_in(const std::string& scene) {
@@ -436,7 +441,8 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   if (options.platform != Platform::drone) robot.height = std::max(robot.height, robot.sensor_height + 0.1);
   const double min_floor =
       std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity() : options.ground_plane_z - 0.01;
-  const TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
+  TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
+  grid.exclude(options.skip_areas);
 
   // A test route is planned at least as long as the run (requested waypoints say where it ends); a mapping
   // route covers the floor.

@@ -292,4 +292,21 @@ Eigen::Vector2d TraversabilityGrid::center(int i) const {
   return origin_ + (c.cast<double>() + Eigen::Vector2d(0.5, 0.5)) * cell_;
 }
 
+void TraversabilityGrid::exclude(const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& areas) {
+  if (areas.empty()) return;
+  std::vector<int> kept;
+  for (int i : free_cells_) {
+    const Eigen::Vector2d c = center(i);
+    bool inside = false;
+    for (const auto& [lo, hi] : areas)
+      inside = inside || ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all());
+    if (inside)
+      free_[static_cast<std::size_t>(i)] = 0;
+    else
+      kept.push_back(i);
+  }
+  free_cells_ = std::move(kept);
+  if (free_area() < 1.0) throw Error("the skipped areas leave no traversable floor for the mapping route");
+}
+
 }  // namespace tsdf_mcl::sim

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/mesh.hpp"
@@ -44,6 +45,10 @@ class TraversabilityGrid {
   float slope_deg(int index) const { return slope_deg_[static_cast<std::size_t>(index)]; }
 
   const std::vector<int>& free_cells() const { return free_cells_; }
+  // Takes the cells whose centres lie in any of `areas` (x, y rectangles: min, max) out of the traversable
+  // region: a mapping route that skips rooms (the map then leaves them unobserved but for what the sensor sees
+  // through their doors). Throws Error when less than 1 m^2 stays.
+  void exclude(const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& areas);
   double free_area() const { return static_cast<double>(free_cells_.size()) * cell_ * cell_; }
 
  private:

@@ -247,13 +247,18 @@ int run_localize(int argc, char** argv) {
   report["summary"] = summary_entry;
   report_writer.write(report, out_dir / "report.json");
   output.commit();
+  std::string states;
+  for (std::size_t s = 0; s < kTrackStates; ++s) {
+    if (summary.state_scans[s] == 0) continue;
+    states += " " + std::string(to_string(static_cast<TrackState>(s))) + " " + std::to_string(summary.state_scans[s]);
+  }
   char line[1024];
   std::snprintf(line, sizeof(line),
                 "%zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu initial, "
-                "%zu..%zu, %zu final; %s; wrote %s and %s",
+                "%zu..%zu, %zu final; %s; scans by state:%s; wrote %s and %s",
                 scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
                 lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
-                narrator.verdict(summary, converged_since).c_str(), (output.folder() / "trajectory.tum").c_str(),
+                narrator.verdict(summary, converged_since).c_str(), states.c_str(), (output.folder() / "trajectory.tum").c_str(),
                 (output.folder() / "report.json").c_str());
   progress.summary(line);
   return 0;

@@ -59,6 +59,24 @@ std::vector<Eigen::Vector2d> waypoints_of(const std::string& text) {
   return points;
 }
 
+// "X0,Y0,X1,Y1;..." -> rectangles (min, max).
+std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> areas_of(const std::string& text) {
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> areas;
+  std::stringstream items(text);
+  for (std::string item; std::getline(items, item, ';');) {
+    double v[4] = {0, 0, 0, 0};
+    char comma[3] = {0, 0, 0};
+    std::istringstream in(item);
+    if (!(in >> v[0] >> comma[0] >> v[1] >> comma[1] >> v[2] >> comma[2] >> v[3]) || comma[0] != ',' ||
+        comma[1] != ',' || comma[2] != ',' || !(in >> std::ws).eof()) {
+      throw Error("--skip_areas expects X0,Y0,X1,Y1;... (m), got '" + item + "'");
+    }
+    areas.emplace_back(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
+  }
+  if (areas.empty()) throw Error("--skip_areas expects X0,Y0,X1,Y1;... (m), got nothing");
+  return areas;
+}
+
 }  // namespace
 
 int run_simulate(int argc, char** argv) {
@@ -86,6 +104,8 @@ int run_simulate(int argc, char** argv) {
                  "seed says"},
                 {"waypoints", "X,Y;X,Y;...", "",
                  "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
+                {"skip_areas", "X0,Y0,X1,Y1;...", "",
+                 "mapping route: never enter these rectangles (m), e.g. rooms the mapping run skipped (quote the ';')"},
                 {"platform", "ground|handheld|drone", "ground",
                  "what carries the sensor: a ground robot, a walking person (sensor 1.5 m high, gait sway), a drone "
                  "(1.0-2.5 m high, tilting with its acceleration, yaw off the path at times)"},
@@ -152,6 +172,7 @@ int run_simulate(int argc, char** argv) {
   s.sensor_tilt_deg = o.number("sensor_tilt");
   if (o.has("start")) s.start = start_of(o);
   if (o.has("waypoints")) s.waypoints = waypoints_of(o.text("waypoints"));
+  if (o.has("skip_areas")) s.skip_areas = areas_of(o.text("skip_areas"));
   s.noise.range_sigma = o.number("range_noise");
   s.noise.dropout = o.number("dropout");
   s.odometry.relative = o.number("odom_noise");

@@ -51,11 +51,12 @@ void LocalizeNarrator::explain_initial_fit(std::size_t index, const FilterStep& 
 
 void LocalizeNarrator::detail_line(std::size_t k, std::size_t index, const ScanRecord& record, std::size_t dropped) {
   const FilterStep& step = record.step;
-  const char* state = to_string(localization_state(step));
+  const char* state = to_string(step.state);
   if (step.updated) {
     progress_.detail(
-        format("[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s%s", k + 1, total_, index,
+        format("[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s, map coverage %.2f%s", k + 1, total_, index,
                record.points.output, step.particles, step.next_particles, step.timings.total_ms, state,
+               step.estimate.coverage,
                step.injected > 0 ? (", " + std::to_string(step.injected) + " random particles").c_str() : ""));
   } else {
     progress_.detail(
@@ -76,21 +77,21 @@ void LocalizeNarrator::scan(std::size_t k, std::size_t index, const ScanRecord& 
   bool milestone = false;
   if (step.updated) {
     if (options_.initial_pose && !explained_fit_) explain_initial_fit(index, step);
-    if (step.injected > 0 && !searching_noted_ && reported_ != LocalizationState::kConverged) {
+    if (step.injected > 0 && !searching_noted_ && reported_ != TrackState::kConverged) {
       searching_noted_ = true;
       progress_.note(
           format("scan %zu: the scan fits the belief poorly; the filter is searching the map with "
                  "random particles (recovery)",
                  index));
     }
-    const LocalizationState now = localization_state(step);
+    const TrackState now = step.state;
     candidate_updates_ = now == candidate_ ? candidate_updates_ + 1 : 1;
     candidate_ = now;
-    if (now != reported_ && (now == LocalizationState::kConverged || candidate_updates_ >= kStateHoldUpdates)) {
+    if (now != reported_ && (now == TrackState::kConverged || candidate_updates_ >= kStateHoldUpdates)) {
       milestone = true;
       reported_ = now;
-      if (now == LocalizationState::kConverged && !first_converged_) first_converged_ = index;
-      if (now != LocalizationState::kConverged) searching_noted_ = false;
+      if (now == TrackState::kConverged && !first_converged_) first_converged_ = index;
+      if (now != TrackState::kConverged) searching_noted_ = false;
     }
   }
   std::string status = std::to_string(step.updated ? step.next_particles : record.particles_before) + " particles, " +

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "progress.hpp"
-#include "tsdf_mcl/localization_state.hpp"
+#include "tsdf_mcl/track_state.hpp"
 #include "tsdf_mcl/localizer.hpp"
 
 namespace tsdf_mcl::cli {
@@ -32,8 +32,8 @@ class LocalizeNarrator {
   Progress& progress_;
   LocalizerOptions options_;
   std::size_t total_;
-  LocalizationState reported_ = LocalizationState::kSearching;
-  LocalizationState candidate_ = LocalizationState::kSearching;
+  TrackState reported_ = TrackState::kSearching;
+  TrackState candidate_ = TrackState::kSearching;
   std::size_t candidate_updates_ = 0;
   bool explained_fit_ = false;
   bool searching_noted_ = false;

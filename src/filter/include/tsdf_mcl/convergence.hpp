@@ -32,6 +32,9 @@ struct ConvergenceOptions {
   // The dominant hypothesis's inlier ratio (scan_fit.hpp) must be at least this. Correct tracks measured on
   // real and simulated data stay above it (docs/filter.md); wrong locks mostly fall below.
   double min_inlier_ratio = 0.5;
+  // ... and the map must cover at least this share of the scan there (Hypothesis::coverage): an inlier ratio
+  // over a few observed points proves nothing. Below it the filter tracks through unmapped space (TrackState).
+  double min_coverage = 0.5;
   std::size_t min_updates = 3;
   // A hypothesis other than the dominant one, holding at least competitor_min_weight of the belief, further
   // than max_jump from it and with an inlier ratio within competitor_margin of the dominant one's, is a

@@ -26,6 +26,8 @@
 #include "tsdf_mcl/resampling.hpp"
 #include "tsdf_mcl/sensor_evaluator.hpp"
 #include "tsdf_mcl/subset_first.hpp"
+#include "tsdf_mcl/track_keeper.hpp"
+#include "tsdf_mcl/track_state.hpp"
 
 namespace tsdf_mcl {
 
@@ -139,6 +141,11 @@ struct FilterParameters {
   // This is what lets a filter leave a wrong lock whose fit looks plausible. 0 candidates = off.
   std::size_t challenger_candidates = 20000;
   double challenger_interval = 0.5;  // s
+  // A jump needs proof (track_keeper.hpp): once converged, the track is only left for a challenger that explains
+  // the scans better over track.proof_travel_m of travel, judged on the points observed under both poses.
+  TrackKeeperOptions track;
+  // TrackState::kAmbiguous also when the second hypothesis holds at least this share of the belief.
+  double ambiguous_weight = 0.1;
   GlobalInitOptions global_init;
   GlobalSearchOptions global_search;
   LocalInitSpread local_init;
@@ -177,6 +184,13 @@ struct FilterStep {
   bool implausible = false;     // ... and its inlier ratio is below recovery_min_inliers
   bool challenged = false;      // another hypothesis explains the scan nearly as well (convergence.hpp)
   std::size_t challengers = 0;  // particles of the background search added in this update
+  std::size_t restored = 0;     // particles put back on the track after a disproven challenger
+  // The published estimate stays on the track against a dominant hypothesis elsewhere that is not proven yet
+  // (track_keeper.hpp); the challenge's paired evidence (nats) and travel (m) so far.
+  bool holding = false;
+  double challenge_evidence = 0.0;
+  double challenge_travel = 0.0;
+  TrackState state = TrackState::kSearching;  // what the filter can say about its track (track_state.hpp)
   StepTimings timings;
   PoseEstimate estimate;
 };
@@ -209,6 +223,7 @@ class ParticleFilter {
   bool initialized() const { return initialized_; }
   std::size_t particle_count() const { return count_; }
   const PoseEstimate& estimate() const { return estimate_; }
+  TrackState state() const { return state_; }  // of the last scan (track_state.hpp)
   const FilterParameters& params() const { return params_; }
   // The active particle set (views stay valid until the next update or initialization).
   ParticleArrays particles() const { return evaluator_.particles(); }
@@ -226,11 +241,23 @@ class ParticleFilter {
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
   double belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const;
   double judge_fit(FilterStep& step);
+  // The track keeper's turn (track_keeper.hpp) after the convergence test: may move the estimate back onto the
+  // track and schedule particles for it.
+  void keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  TrackState classify(const FilterStep& step) const;
+  double evidence_dead_band() const;  // what a point inlier_distance off a surface loses (nats)
+  // A track that was converged at the last update where the map covered the scan: only such a track tracks
+  // through unmapped space (its fit is judged on the observed points, and not at all where the map covers too
+  // little). Any other belief is judged on the inlier share of all its points: a lost track that drifts out of
+  // the map must not pass for one in an unmapped room.
+  bool trusted_track() const { return keeper_.active() && trusted_; }
+  double judged_ratio() const;
   // Particles from the proposal that join the next generation (recovery, challengers).
   struct Injection {
     std::size_t count = 0;
     std::size_t candidates = 0;  // screened down to `count` from this many; count = drawn as they come
     double share = 0.0;          // of the belief, all of them together
+    std::optional<Pose> around;  // drawn near this pose (the track), not from the proposal
   };
   Injection plan_injection(double time, const FilterStep& step) const;
   void resample(std::size_t n, std::size_t budget, const Injection& injection,
@@ -254,6 +281,10 @@ class ParticleFilter {
   PoseEstimator estimator_;
   RecoveryMonitor recovery_;
   ConvergenceMonitor convergence_;
+  TrackKeeper keeper_;
+  bool restore_pending_ = false;  // the next resampling puts particles back on the track
+  bool trusted_ = false;          // converged at the last update with enough map coverage (trusted_track())
+  Matrix6d track_covariance_ = Matrix6d::Zero();
   GroupResampler group_resampler_;
 
   std::size_t capacity_ = 0;
@@ -277,6 +308,9 @@ class ParticleFilter {
   std::vector<double> group_share_;       // share of each group after the between-hypothesis tempering
   std::vector<std::uint32_t> ancestors_;
   SubsetFirstWeighing subset_first_;
+  // The dominant hypothesis's per-point log-likelihoods and map evidence flags at its refined pose (this update).
+  std::vector<double> top_log_;
+  std::vector<std::uint8_t> top_observed_;
 
   // Motion bookkeeping at the last filter update.
   bool has_update_ = false;
@@ -289,6 +323,7 @@ class ParticleFilter {
   double velocity_dt_ = 0.0;
 
   PoseEstimate estimate_;
+  TrackState state_ = TrackState::kSearching;
 };
 
 }  // namespace tsdf_mcl

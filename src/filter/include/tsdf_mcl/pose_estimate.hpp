@@ -47,9 +47,12 @@ struct Hypothesis {
   std::size_t particles = 0;
   double std_position = 0.0;  // m, sqrt of the largest position-covariance eigenvalue
   double std_rotation = 0.0;  // rad
-  // Share of the scan's points within inlier distance of a surface at `pose` (ParticleFilter fills it in;
-  // NaN where not computed).
+  // Share of the scan's points with map evidence (scan_fit.hpp: RayFit) within inlier distance of a surface at
+  // `pose` (ParticleFilter fills it in; NaN where not computed). Points in space the map never observed count
+  // for nothing: see `coverage`.
   double inlier_ratio = std::numeric_limits<double>::quiet_NaN();
+  // Map coverage: the share of the scan's points with map evidence at `pose` (1 - the share in unobserved space).
+  double coverage = std::numeric_limits<double>::quiet_NaN();
   // Share of the scan's rays that pass through a wall of the map at `pose` (scan_fit.hpp: RayFit).
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();
 };
@@ -69,6 +72,7 @@ struct PoseEstimate {
   bool converged = false;
   double inlier_ratio = std::numeric_limits<double>::quiet_NaN();       // of the dominant mode (hypotheses[0])
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();  // likewise
+  double coverage = std::numeric_limits<double>::quiet_NaN();           // map coverage at `pose`
   // The heaviest modes, best first, at most max_hypotheses: "two rooms, 55 % / 45 %".
   std::vector<Hypothesis> hypotheses;
 };

@@ -12,6 +12,7 @@
 //   }
 //   localizer.reset_to(pose);       // an operator's initial pose ("/initialpose")
 //   localizer.reset_global();       // search the whole map again from the next scan ("global_localization")
+#include <array>
 #include <deque>
 #include <memory>
 #include <optional>
@@ -61,7 +62,11 @@ struct InitializationRecord {
 struct RunSummary {
   std::size_t scans = 0;
   std::size_t updates = 0;
-  bool converged = false;                      // the last estimate
+  bool converged = false;                     // the last estimate
+  TrackState state = TrackState::kSearching;  // of the last scan
+  // Scans per state (indexed by TrackState), every scan counted, held ones with the last update's state.
+  std::array<std::size_t, kTrackStates> state_scans{};
+  double coverage_min = 1.0;  // lowest map coverage of an update's estimate (track_state.hpp, scan_fit.hpp)
   std::optional<double> converged_since_time;  // time of the scan from which every update said converged
   std::optional<std::uint64_t> converged_since_index;
   std::size_t particles_min = 0, particles_max = 0, particles_final = 0;
@@ -100,6 +105,11 @@ class Localizer {
   void request_update() { filter_->request_update(); }
 
   const PoseEstimate& estimate() const { return filter_->estimate(); }
+  // What the filter can say about its track after the last scan: searching, tracking, ambiguous, converged,
+  // unmapped (tracking through space the map never observed) or lost.
+  TrackState state() const { return filter_->state(); }
+  // Map coverage at the estimate: the share of the last update's scan points with map evidence (NaN before one).
+  double coverage() const { return filter_->estimate().coverage; }
   const ParticleFilter& filter() const { return *filter_; }
   const SensorEvaluator& evaluator() const { return *evaluator_; }
   const std::string& backend_note() const { return backend_note_; }
@@ -130,6 +140,8 @@ class Localizer {
   double update_ms_sum_ = 0.0, update_ms_max_ = 0.0;
   std::optional<double> converged_since_time_;
   std::optional<std::uint64_t> converged_since_index_;
+  std::array<std::size_t, kTrackStates> state_scans_{};
+  double coverage_min_ = 1.0;
 };
 
 }  // namespace tsdf_mcl

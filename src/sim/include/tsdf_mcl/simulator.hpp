@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/mesh.hpp"
@@ -232,6 +233,10 @@ struct SimulationOptions {
   // traversable floor snap onto it; farther ones are an error.
   std::optional<Eigen::Vector3d> start;
   std::vector<Eigen::Vector2d> waypoints;
+  // Mapping routes: never enter these x, y rectangles (min, max; m), e.g. rooms the mapping run skipped. The map
+  // built from the run then leaves them unobserved but for what the sensor sees through their doors; a test route
+  // that enters them tracks through unmapped space.
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> skip_areas;
   ScanNoise noise;
   OdometryNoise odometry;
   // Keep a sweep only once the sensor moved this far (m) or turned 30 deg since the last kept one; 0 keeps
