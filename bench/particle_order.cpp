@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "tsdf_mcl/morton.hpp"
+#include "tsdf_mcl/core/morton.hpp"
 
 namespace tsdf_mcl::bench {
 

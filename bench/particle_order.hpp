@@ -4,7 +4,7 @@
 // the map. On particles drawn uniformly over the map box in random order it saves about a fifth of a sensor update
 // on both backends; in the filter's global phase (the best 100k of a million screened hypotheses, clustered on the
 // places that fit) it measured no gain, so the filter does not sort (docs/sensor-update.md, "What did not pay").
-#include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::bench {
 

@@ -4,9 +4,9 @@
 // map's public API and the summed likelihood; threads over particles.
 #include <vector>
 
-#include "tsdf_mcl/endpoint_model.hpp"
-#include "tsdf_mcl/sensor_evaluator.hpp"
-#include "tsdf_mcl/tsdf_map.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
 
 namespace tsdf_mcl::bench {
 

@@ -10,11 +10,11 @@
 #include <random>
 
 #include "reference_cpu_baseline.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/make_evaluator.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "particle_order.hpp"
-#include "tsdf_mcl/sensor_evaluator.hpp"
-#include "tsdf_mcl/subset_first.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
+#include "tsdf_mcl/filter/subset_first.hpp"
 
 namespace tsdf_mcl::bench {
 namespace {

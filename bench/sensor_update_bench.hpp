@@ -5,11 +5,11 @@
 #include <string>
 #include <vector>
 
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/endpoint_model.hpp"
-#include "tsdf_mcl/sensor_evaluator.hpp"
-#include "tsdf_mcl/subset_first.hpp"
-#include "tsdf_mcl/tsdf_map.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
+#include "tsdf_mcl/filter/subset_first.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
 
 namespace tsdf_mcl::bench {
 

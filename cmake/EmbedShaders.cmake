@@ -16,8 +16,8 @@ function(tsdf_mcl_add_shader)
   foreach(d IN LISTS ARG_DEFINES)
     list(APPEND defs "-D${d}")
   endforeach()
-  # Shaders include the sensor core's GLSL mirror (src/sensor/glsl) and the shader interface next to them.
-  set(flags --target-env=vulkan1.2 -O -Werror -I "${CMAKE_CURRENT_SOURCE_DIR}" -I "${PROJECT_SOURCE_DIR}/src/sensor/glsl" ${defs})
+  # Shaders include the sensor model's GLSL mirror and the host/shader interface, all beside them in shaders/.
+  set(flags --target-env=vulkan1.2 -O -Werror -I "${CMAKE_CURRENT_SOURCE_DIR}" ${defs})
   add_custom_command(
     OUTPUT "${inc}" "${asm}"
     COMMAND "${GLSLC}" ${flags} -mfmt=num -MD -MF "${dep}" -MT "${inc}" -o "${inc}" "${src}"

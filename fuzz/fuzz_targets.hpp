@@ -13,17 +13,17 @@
 #include <fstream>
 #include <string>
 
-#include "tsdf_mcl/cloud_io.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/imu.hpp"
-#include "tsdf_mcl/map_builder.hpp"
-#include "tsdf_mcl/map_io.hpp"
-#include "tsdf_mcl/mesh.hpp"
-#include "tsdf_mcl/parameter_file.hpp"
-#include "tsdf_mcl/particle_snapshot.hpp"
-#include "tsdf_mcl/pointcloud2.hpp"
-#include "tsdf_mcl/ros1_messages.hpp"
+#include "tsdf_mcl/io/cloud_io.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/imu.hpp"
+#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/io/mesh.hpp"
+#include "tsdf_mcl/localizer/parameter_file.hpp"
+#include "tsdf_mcl/io/particle_snapshot.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
+#include "tsdf_mcl/io/ros1_messages.hpp"
 
 namespace tsdf_mcl::fuzz {
 

@@ -5,8 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 format=$(command -v clang-format-14 || command -v clang-format || true)
 [ -n "$format" ] || { echo "format.sh: clang-format is not installed (apt-get install clang-format-14)" >&2; exit 1; }
-mapfile -t files < <(git ls-files --cached --others --exclude-standard -- 'src/*' 'tools/*' 'tests/*' 'bench/*' 'fuzz/*' 'ros/*' 'python/*' |
-                     grep -E '\.(cpp|hpp|h|c)$' | grep -v '^src/gpu/shaders/' | while read -r f; do [ -e "$f" ] && echo "$f"; done)
+mapfile -t files < <(git ls-files --cached --others --exclude-standard -- 'src/*' 'include/*' 'tools/*' 'tests/*' 'bench/*' 'fuzz/*' 'ros/*' 'python/*' |
+                     grep -E '\.(cpp|hpp|h|c)$' | grep -v '^shaders/' | while read -r f; do [ -e "$f" ] && echo "$f"; done)
 if [ "${1:-}" = "--check" ]; then
   bad=0
   for f in "${files[@]}"; do

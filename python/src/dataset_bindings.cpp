@@ -7,9 +7,9 @@
 
 #include "bindings.hpp"
 #include "numpy_io.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/trajectory_metrics.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/eval/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::python {
 

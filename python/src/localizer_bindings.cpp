@@ -11,8 +11,8 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "parameters.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
 
 namespace tsdf_mcl::python {
 namespace {

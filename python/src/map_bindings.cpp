@@ -11,11 +11,11 @@
 
 #include "bindings.hpp"
 #include "numpy_io.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/map_builder.hpp"
-#include "tsdf_mcl/map_io.hpp"
-#include "tsdf_mcl/mesh.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/io/mesh.hpp"
 
 namespace tsdf_mcl::python {
 namespace {

@@ -3,7 +3,7 @@
 
 #include "bindings.hpp"
 #include "numpy_io.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 PYBIND11_MODULE(tsdf_mcl, m) {
   namespace py = pybind11;

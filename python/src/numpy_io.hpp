@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "tsdf_mcl/pose.hpp"
-#include "tsdf_mcl/pose_estimate.hpp"
+#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/filter/pose_estimate.hpp"
 
 namespace tsdf_mcl::python {
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
 
 namespace tsdf_mcl::python {
 

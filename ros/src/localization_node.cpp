@@ -16,11 +16,11 @@
 #include <tf2/exceptions.h>
 
 #include "ros_conversions.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/localizer_parameters.hpp"
-#include "tsdf_mcl/map_io.hpp"
-#include "tsdf_mcl/planar_pose.hpp"
-#include "tsdf_mcl/transform_tree.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/localizer/planar_pose.hpp"
+#include "tsdf_mcl/io/transform_tree.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {

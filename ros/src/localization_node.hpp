@@ -31,8 +31,8 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Empty.h>
 
-#include "tsdf_mcl/localizer.hpp"
-#include "tsdf_mcl/tsdf_map.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
 
 namespace tsdf_mcl::ros_node {
 

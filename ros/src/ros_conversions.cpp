@@ -3,7 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "tsdf_mcl/pointcloud2.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
 
 namespace tsdf_mcl::ros_node {
 

@@ -8,10 +8,10 @@
 #include <boost/array.hpp>
 #include <string>
 
-#include "tsdf_mcl/point_cloud.hpp"
-#include "tsdf_mcl/pose.hpp"
-#include "tsdf_mcl/pose_estimate.hpp"
-#include "tsdf_mcl/tsdf_map.hpp"
+#include "tsdf_mcl/core/point_cloud.hpp"
+#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/filter/pose_estimate.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
 
 namespace tsdf_mcl::ros_node {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 
 #include "ros_conversions.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/pointcloud2.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {

@@ -1,6 +1,6 @@
-// The node's parameters go through the library's schema (tsdf_mcl/localizer_parameters.hpp): a bad value stops it
-// with one message naming the parameter, ROS 1 amcl's names are aliases, a misspelt name is warned about with the
-// closest known one. Each case starts the node against a master of its own and waits for it to exit (the map file
+// The node's parameters go through the library's schema (tsdf_mcl/localizer/localizer_parameters.hpp): a bad value
+// stops it with one message naming the parameter, ROS 1 amcl's names are aliases, a misspelt name is warned about with
+// the closest known one. Each case starts the node against a master of its own and waits for it to exit (the map file
 // does not exist, so a node whose parameters pass stops at the map instead).
 #include <gtest/gtest.h>
 #include <signal.h>

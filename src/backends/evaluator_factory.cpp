@@ -1,11 +1,11 @@
 #include <memory>
 #include <string>
 
-#include "tsdf_mcl/make_evaluator.hpp"
+#include "tsdf_mcl/backends/make_evaluator.hpp"
 
-#include "tsdf_mcl/cpu_evaluator.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/vulkan_evaluator.hpp"
+#include "tsdf_mcl/cpu/cpu_evaluator.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/gpu/vulkan_evaluator.hpp"
 
 namespace tsdf_mcl {
 

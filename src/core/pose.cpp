@@ -1,4 +1,4 @@
-#include "tsdf_mcl/pose.hpp"
+#include "tsdf_mcl/core/pose.hpp"
 
 #include <algorithm>
 #include <cmath>

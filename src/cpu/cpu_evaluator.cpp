@@ -1,4 +1,4 @@
-#include "tsdf_mcl/cpu_evaluator.hpp"
+#include "tsdf_mcl/cpu/cpu_evaluator.hpp"
 
 #include <omp.h>
 
@@ -6,10 +6,10 @@
 #include <chrono>
 #include <thread>
 
-#include "endpoint_avx2.hpp"
-#include "endpoint_neon.hpp"
-#include "tsdf_mcl/weight_reduction.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/cpu/endpoint_avx2.hpp"
+#include "tsdf_mcl/cpu/endpoint_neon.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

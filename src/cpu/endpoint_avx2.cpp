@@ -1,4 +1,4 @@
-#include "endpoint_avx2.hpp"
+#include "tsdf_mcl/cpu/endpoint_avx2.hpp"
 
 #if defined(__x86_64__)
 #include <immintrin.h>

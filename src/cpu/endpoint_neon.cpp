@@ -1,4 +1,4 @@
-#include "endpoint_neon.hpp"
+#include "tsdf_mcl/cpu/endpoint_neon.hpp"
 
 #if defined(__aarch64__)
 #include <arm_neon.h>

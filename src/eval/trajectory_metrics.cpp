@@ -1,11 +1,11 @@
-#include "tsdf_mcl/trajectory_metrics.hpp"
+#include "tsdf_mcl/eval/trajectory_metrics.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 

@@ -1,8 +1,8 @@
-#include "tsdf_mcl/convergence.hpp"
+#include "tsdf_mcl/filter/convergence.hpp"
 
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 

@@ -1,11 +1,11 @@
-#include "tsdf_mcl/global_proposal.hpp"
+#include "tsdf_mcl/filter/global_proposal.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "tsdf_mcl/endpoint_kernel.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/motion_model.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,10 +1,10 @@
-#include "tsdf_mcl/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

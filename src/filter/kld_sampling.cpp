@@ -1,12 +1,12 @@
-#include "tsdf_mcl/kld_sampling.hpp"
+#include "tsdf_mcl/filter/kld_sampling.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/motion_model.hpp"
-#include "tsdf_mcl/pose.hpp"
-#include "tsdf_mcl/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/core/random.hpp"
 
 namespace tsdf_mcl {
 

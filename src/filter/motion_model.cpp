@@ -1,9 +1,9 @@
-#include "tsdf_mcl/motion_model.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
 
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/random.hpp"
 
 namespace tsdf_mcl {
 

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/particle_filter.hpp"
+#include "tsdf_mcl/filter/particle_filter.hpp"
 
 #include <algorithm>
 #include <Eigen/Eigenvalues>
@@ -7,11 +7,11 @@
 #include <limits>
 #include <string>
 
-#include "tsdf_mcl/weight_reduction.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/hypothesis_weighting.hpp"
-#include "tsdf_mcl/motion_model.hpp"
-#include "tsdf_mcl/scan_fit.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/particle_init.hpp"
+#include "tsdf_mcl/filter/particle_init.hpp"
 
 #include <algorithm>
 #include <bitset>
@@ -6,9 +6,9 @@
 #include <limits>
 #include <string>
 
-#include "tsdf_mcl/endpoint_kernel.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/motion_model.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,12 +1,12 @@
-#include "tsdf_mcl/pose_estimate.hpp"
+#include "tsdf_mcl/filter/pose_estimate.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/motion_model.hpp"
-#include "tsdf_mcl/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/core/random.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,9 +1,9 @@
-#include "tsdf_mcl/recovery.hpp"
+#include "tsdf_mcl/filter/recovery.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 

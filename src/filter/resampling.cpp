@@ -1,8 +1,8 @@
-#include "tsdf_mcl/resampling.hpp"
+#include "tsdf_mcl/filter/resampling.hpp"
 
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,9 +1,9 @@
-#include "tsdf_mcl/scan_fit.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "tsdf_mcl/endpoint_kernel.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
 
 namespace tsdf_mcl {
 

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/scan_gravity.hpp"
+#include "tsdf_mcl/filter/scan_gravity.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <initializer_list>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/random.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,12 +1,12 @@
-#include "tsdf_mcl/scan_preprocessing.hpp"
+#include "tsdf_mcl/filter/scan_preprocessing.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/morton.hpp"
-#include "tsdf_mcl/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/morton.hpp"
+#include "tsdf_mcl/core/random.hpp"
 
 namespace tsdf_mcl {
 

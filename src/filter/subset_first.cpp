@@ -1,11 +1,11 @@
-#include "tsdf_mcl/subset_first.hpp"
+#include "tsdf_mcl/filter/subset_first.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/weight_reduction.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,10 +1,10 @@
-#include "tsdf_mcl/track_keeper.hpp"
+#include "tsdf_mcl/filter/track_keeper.hpp"
 
 #include <cmath>
 #include <string>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/track_state.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/track_state.hpp"
 
 namespace tsdf_mcl {
 

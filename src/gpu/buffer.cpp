@@ -3,7 +3,7 @@
 #include <cstring>
 #include <utility>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::gpu {
 

@@ -6,7 +6,7 @@
 #include <cstring>
 #include <vector>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::gpu {
 

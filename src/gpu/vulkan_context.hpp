@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::gpu {
 

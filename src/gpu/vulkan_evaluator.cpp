@@ -1,4 +1,4 @@
-#include "tsdf_mcl/vulkan_evaluator.hpp"
+#include "tsdf_mcl/gpu/vulkan_evaluator.hpp"
 
 #include <algorithm>
 #include <array>
@@ -13,9 +13,9 @@
 #include "compute_pipeline.hpp"
 #include "push_constants.hpp"
 #include "shader_interface.h"
-#include "tsdf_mcl/endpoint_kernel.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/weight_reduction.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
 #include "vulkan_context.hpp"
 
 namespace tsdf_mcl {

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/cloud_io.hpp"
+#include "tsdf_mcl/io/cloud_io.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -11,14 +11,14 @@
 #include <cstring>
 #include <string>
 
-#include "tsdf_mcl/checked_math.hpp"
-#include "tsdf_mcl/little_endian.hpp"
-#include "pcd_format.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/io/pcd_format.hpp"
 #include "ply_format.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

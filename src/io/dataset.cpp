@@ -1,4 +1,4 @@
-#include "tsdf_mcl/dataset.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -8,14 +8,14 @@
 #include <fstream>
 #include <sstream>
 
-#include "tsdf_mcl/checked_math.hpp"
-#include "tsdf_mcl/little_endian.hpp"
-#include "pcd_format.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/transform_tree.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/io/pcd_format.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/io/transform_tree.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -1,13 +1,13 @@
-#include "tsdf_mcl/imu.hpp"
+#include "tsdf_mcl/io/imu.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 

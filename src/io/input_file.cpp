@@ -1,4 +1,4 @@
-#include "tsdf_mcl/input_file.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -6,7 +6,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

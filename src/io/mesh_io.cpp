@@ -10,13 +10,13 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "tsdf_mcl/little_endian.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
 #include "ply_format.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/mesh.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/io/mesh.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -1,8 +1,8 @@
 // Stands in for src/io/rosbag/ where the library is built without rosbag_storage (CMake: TSDF_MCL_HAVE_ROSBAG off):
 // every bag entry point says so in one sentence.
-#include "tsdf_mcl/bag_writer.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/io/bag_writer.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,13 +1,13 @@
-#include "tsdf_mcl/particle_snapshot.hpp"
+#include "tsdf_mcl/io/particle_snapshot.hpp"
 
 #include <cmath>
 #include <cstring>
 #include <string>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

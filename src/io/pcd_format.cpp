@@ -1,10 +1,10 @@
-#include "pcd_format.hpp"
+#include "tsdf_mcl/io/pcd_format.hpp"
 
 #include <charconv>
 #include <sstream>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::io {
 namespace {

@@ -4,8 +4,8 @@
 #include <sstream>
 #include <utility>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::io {
 

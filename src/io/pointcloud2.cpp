@@ -1,4 +1,4 @@
-#include "tsdf_mcl/pointcloud2.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
 
 #include <cfloat>
 #include <cmath>
@@ -6,10 +6,10 @@
 #include <limits>
 #include <optional>
 
-#include "tsdf_mcl/checked_math.hpp"
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 

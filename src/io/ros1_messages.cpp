@@ -1,10 +1,10 @@
-#include "tsdf_mcl/ros1_messages.hpp"
+#include "tsdf_mcl/io/ros1_messages.hpp"
 
 #include <cmath>
 #include <cstring>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::ros1 {
 namespace {

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/transform_tree.hpp"
+#include "tsdf_mcl/io/transform_tree.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <limits>
 #include <set>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/ros1_messages.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/ros1_messages.hpp"
 
 namespace tsdf_mcl {
 namespace {

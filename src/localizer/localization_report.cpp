@@ -1,10 +1,10 @@
-#include "tsdf_mcl/localization_report.hpp"
+#include "tsdf_mcl/localizer/localization_report.hpp"
 
 #include <cmath>
 #include <string>
 
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,11 +1,11 @@
-#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/make_evaluator.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/backends/make_evaluator.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/localizer_parameters.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -8,8 +8,8 @@
 #include <set>
 #include <sstream>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/parameter_file.hpp"
+#include "tsdf_mcl/localizer/parameter_file.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 namespace {

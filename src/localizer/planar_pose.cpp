@@ -1,10 +1,10 @@
-#include "tsdf_mcl/planar_pose.hpp"
+#include "tsdf_mcl/localizer/planar_pose.hpp"
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
 
-#include "tsdf_mcl/scan_gravity.hpp"
+#include "tsdf_mcl/filter/scan_gravity.hpp"
 
 namespace tsdf_mcl {
 

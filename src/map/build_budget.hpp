@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 

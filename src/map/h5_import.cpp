@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "build_budget.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

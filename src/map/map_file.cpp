@@ -19,11 +19,11 @@
 
 #include <zlib.h>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "build_budget.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/map_builder.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/map/map_builder.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,14 +1,14 @@
-#include "tsdf_mcl/tsdf_map.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
 
-#include "tsdf_mcl/map_lookup.hpp"
+#include "tsdf_mcl/map/map_lookup.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "tsdf_mcl/checked_math.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/limits.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -234,7 +234,7 @@ void TsdfMap::compact() {
   pool_ = std::move(pool);
 }
 
-// The sensor update's own lookup (tsdf_mcl/map_lookup.hpp), so that a sample here is what a particle sees.
+// The sensor update's own lookup (tsdf_mcl/map/map_lookup.hpp), so that a sample here is what a particle sees.
 TsdfMap::Sample TsdfMap::nearest(const Eigen::Vector3f& world) const {
   const kernel::MapView view(*this);
   const float g[3] = {world.x() * view.inv_voxel, world.y() * view.inv_voxel, world.z() * view.inv_voxel};

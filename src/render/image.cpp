@@ -1,4 +1,4 @@
-#include "tsdf_mcl/image.hpp"
+#include "tsdf_mcl/render/image.hpp"
 
 #include <cairo.h>
 
@@ -12,11 +12,11 @@
 #include <utility>
 #include <vector>
 
-#include "tsdf_mcl/checked_math.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
 #include "clip.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
 
 namespace tsdf_mcl {
 

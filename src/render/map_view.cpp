@@ -1,4 +1,4 @@
-#include "tsdf_mcl/map_view.hpp"
+#include "tsdf_mcl/render/map_view.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,9 +7,9 @@
 #include <limits>
 #include <numeric>
 
-#include "tsdf_mcl/checked_math.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/pose_estimate.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/pose_estimate.hpp"
 
 namespace tsdf_mcl {
 namespace {

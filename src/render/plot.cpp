@@ -1,4 +1,4 @@
-#include "tsdf_mcl/plot.hpp"
+#include "tsdf_mcl/render/plot.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "clip.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
 namespace {

@@ -1,10 +1,10 @@
-#include "tsdf_mcl/endpoint_model.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
 
 #include <string>
 
-#include "tsdf_mcl/endpoint_kernel.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl {
 

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/weight_reduction.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "random.hpp"
-#include "tsdf_mcl/mesh.hpp"
+#include "tsdf_mcl/sim/random.hpp"
+#include "tsdf_mcl/io/mesh.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -1,9 +1,9 @@
-#include "crowd.hpp"
+#include "tsdf_mcl/sim/crowd.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "random.hpp"
+#include "tsdf_mcl/sim/random.hpp"
 
 namespace tsdf_mcl::sim {
 

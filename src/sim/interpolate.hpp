@@ -1,5 +1,5 @@
 #pragma once
-#include "tsdf_mcl/pose.hpp"
+#include "tsdf_mcl/core/pose.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -11,7 +11,7 @@
 
 #include "building.hpp"
 #include "shapes.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -1,11 +1,11 @@
-#include "platform.hpp"
+#include "tsdf_mcl/sim/platform.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 
 #include "interpolate.hpp"
-#include "random.hpp"
+#include "tsdf_mcl/sim/random.hpp"
 
 namespace tsdf_mcl::sim {
 

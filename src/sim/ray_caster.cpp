@@ -4,8 +4,8 @@
 #include <cstring>
 #include <string>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -1,4 +1,4 @@
-#include "route.hpp"
+#include "tsdf_mcl/sim/route.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,8 +9,8 @@
 #include <tuple>
 
 #include "interpolate.hpp"
-#include "random.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/sim/random.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::sim {
 

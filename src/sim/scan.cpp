@@ -2,8 +2,8 @@
 #include <vector>
 
 #include "interpolate.hpp"
-#include "random.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/sim/random.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -3,7 +3,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "tsdf_mcl/mesh.hpp"
+#include "tsdf_mcl/io/mesh.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -8,16 +8,16 @@
 #include <optional>
 #include <vector>
 
-#include "crowd.hpp"
-#include "platform.hpp"
-#include "random.hpp"
-#include "route.hpp"
+#include "tsdf_mcl/sim/crowd.hpp"
+#include "tsdf_mcl/sim/platform.hpp"
+#include "tsdf_mcl/sim/random.hpp"
+#include "tsdf_mcl/sim/route.hpp"
 #include "shapes.hpp"
-#include "traversability.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/sim/traversability.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -12,7 +12,7 @@
 #include <utility>
 
 #include "building.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::sim {
 

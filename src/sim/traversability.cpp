@@ -1,4 +1,4 @@
-#include "traversability.hpp"
+#include "tsdf_mcl/sim/traversability.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <queue>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::sim {
 

@@ -4,9 +4,9 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "sensor_update_bench.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl::cli {
 

@@ -12,12 +12,12 @@
 #include "dataset_source.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/cloud_io.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/map_builder.hpp"
-#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/cloud_io.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {

@@ -8,14 +8,14 @@
 #include "commands.hpp"
 #include "dataset_source.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/image.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/plot.hpp"
-#include "tsdf_mcl/trajectory_metrics.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/render/image.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/render/plot.hpp"
+#include "tsdf_mcl/eval/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {

@@ -5,9 +5,9 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/cloud_io.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/cloud_io.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::cli {
 

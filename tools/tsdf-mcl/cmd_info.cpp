@@ -5,7 +5,7 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/map_io.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {

@@ -17,17 +17,17 @@
 #include "localize_parameters.hpp"
 #include "localize_progress.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/imu.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/localization_report.hpp"
-#include "tsdf_mcl/localizer.hpp"
-#include "tsdf_mcl/map_io.hpp"
-#include "tsdf_mcl/particle_filter.hpp"
-#include "tsdf_mcl/particle_snapshot.hpp"
-#include "tsdf_mcl/scan_preprocessing.hpp"
-#include "tsdf_mcl/sensor_evaluator.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/imu.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/localizer/localization_report.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/filter/particle_filter.hpp"
+#include "tsdf_mcl/io/particle_snapshot.hpp"
+#include "tsdf_mcl/filter/scan_preprocessing.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {
@@ -258,8 +258,8 @@ int run_localize(int argc, char** argv) {
                 "%zu..%zu, %zu final; %s; scans by state:%s; wrote %s and %s",
                 scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
                 lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
-                narrator.verdict(summary, converged_since).c_str(), states.c_str(), (output.folder() / "trajectory.tum").c_str(),
-                (output.folder() / "report.json").c_str());
+                narrator.verdict(summary, converged_since).c_str(), states.c_str(),
+                (output.folder() / "trajectory.tum").c_str(), (output.folder() / "report.json").c_str());
   progress.summary(line);
   return 0;
 }

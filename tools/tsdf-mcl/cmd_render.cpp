@@ -11,14 +11,14 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/image.hpp"
-#include "tsdf_mcl/map_io.hpp"
-#include "tsdf_mcl/map_view.hpp"
-#include "tsdf_mcl/particle_snapshot.hpp"
-#include "tsdf_mcl/trajectory_metrics.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/render/image.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/render/map_view.hpp"
+#include "tsdf_mcl/io/particle_snapshot.hpp"
+#include "tsdf_mcl/eval/trajectory_metrics.hpp"
 
 namespace tsdf_mcl::cli {
 namespace fs = std::filesystem;

@@ -11,10 +11,10 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/bag_writer.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/simulator.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/io/bag_writer.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/sim/simulator.hpp"
 
 namespace tsdf_mcl::cli {
 

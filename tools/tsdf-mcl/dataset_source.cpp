@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {

@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "options.hpp"
-#include "tsdf_mcl/dataset.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
 
 namespace tsdf_mcl::cli {
 

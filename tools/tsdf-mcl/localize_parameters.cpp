@@ -2,9 +2,9 @@
 
 #include <map>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/localizer_parameters.hpp"
-#include "tsdf_mcl/parameter_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
+#include "tsdf_mcl/localizer/parameter_file.hpp"
 
 namespace tsdf_mcl::cli {
 

@@ -1,11 +1,11 @@
 #pragma once
-// The command line's adapter over the library's parameter schema (tsdf_mcl/localizer_parameters.hpp): its specs as
-// options, a --config file under the command line, and the values into LocalizerOptions.
+// The command line's adapter over the library's parameter schema (tsdf_mcl/localizer/localizer_parameters.hpp): its
+// specs as options, a --config file under the command line, and the values into LocalizerOptions.
 #include <string>
 #include <vector>
 
 #include "options.hpp"
-#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
 
 namespace tsdf_mcl::cli {
 

@@ -54,8 +54,8 @@ void LocalizeNarrator::detail_line(std::size_t k, std::size_t index, const ScanR
   const char* state = to_string(step.state);
   if (step.updated) {
     progress_.detail(
-        format("[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s, map coverage %.2f%s", k + 1, total_, index,
-               record.points.output, step.particles, step.next_particles, step.timings.total_ms, state,
+        format("[%zu/%zu] scan %zu: %zu points, particles %zu -> %zu, update %.1f ms, %s, map coverage %.2f%s", k + 1,
+               total_, index, record.points.output, step.particles, step.next_particles, step.timings.total_ms, state,
                step.estimate.coverage,
                step.injected > 0 ? (", " + std::to_string(step.injected) + " random particles").c_str() : ""));
   } else {

@@ -8,8 +8,8 @@
 #include <string>
 
 #include "progress.hpp"
-#include "tsdf_mcl/track_state.hpp"
-#include "tsdf_mcl/localizer.hpp"
+#include "tsdf_mcl/filter/track_state.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
 
 namespace tsdf_mcl::cli {
 

@@ -7,8 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/localizer_parameters.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
 
 namespace tsdf_mcl::cli {
 

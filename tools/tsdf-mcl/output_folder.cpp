@@ -2,8 +2,8 @@
 
 #include <unistd.h>
 
-#include "tsdf_mcl/atomic_file.hpp"
-#include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl::cli {
 namespace fs = std::filesystem;

@@ -26,14 +26,14 @@
 #include <mutex>
 #include <set>
 
-#include "tsdf_mcl/little_endian.hpp"
-#include "tsdf_mcl/dataset.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/input_file.hpp"
-#include "tsdf_mcl/limits.hpp"
-#include "tsdf_mcl/pointcloud2.hpp"
-#include "tsdf_mcl/ros1_messages.hpp"
-#include "tsdf_mcl/transform_tree.hpp"
+#include "tsdf_mcl/core/little_endian.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
+#include "tsdf_mcl/io/ros1_messages.hpp"
+#include "tsdf_mcl/io/transform_tree.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -12,9 +12,9 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include "tsdf_mcl/bag_writer.hpp"
-#include "tsdf_mcl/error.hpp"
-#include "tsdf_mcl/pointcloud2.hpp"
+#include "tsdf_mcl/io/bag_writer.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/pointcloud2.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <vector>
 
-#include "tsdf_mcl/localizer.hpp"
-#include "tsdf_mcl/map_builder.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/map/map_builder.hpp"
 
 int main() {
   using tsdf_mcl::Pose;

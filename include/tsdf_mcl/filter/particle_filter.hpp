@@ -1,0 +1,329 @@
+#pragma once
+// The 6-DoF particle filter: motion update on the host, sensor update by a SensorEvaluator (GPU or CPU),
+// resampling with KLD-adapted particle counts and recovery by random particles, all on the evaluator's
+// particle buffers in place.
+//
+// One update():
+//   motion gate (update_min_d / update_min_a on the motion since the last filter update; also a time
+//   interval until the first convergence) -> motion update (+ roughening until the first convergence)
+//   -> sensor update (evaluator) -> tempering -> hypotheses (modes) and the evidence between them
+//   -> fit of each hypothesis, recovery, convergence -> resampling per hypothesis when due.
+// Scans the gate holds back move only the estimate (by the motion since the last update), not the particles:
+// noise that grows with the motion must be drawn once for the whole motion, not once per small step.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "tsdf_mcl/filter/convergence.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
+#include "tsdf_mcl/filter/global_proposal.hpp"
+#include "tsdf_mcl/filter/kld_sampling.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/filter/particle_init.hpp"
+#include "tsdf_mcl/filter/pose_estimate.hpp"
+#include "tsdf_mcl/filter/recovery.hpp"
+#include "tsdf_mcl/filter/resampling.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
+#include "tsdf_mcl/filter/subset_first.hpp"
+#include "tsdf_mcl/filter/track_keeper.hpp"
+#include "tsdf_mcl/filter/track_state.hpp"
+
+namespace tsdf_mcl {
+
+// The endpoint model with the filter's default tempering, weight_exponent 0.2. Neighbouring beams and
+// successive scans see the same surfaces with the same map errors, so the untempered product of 500 points per
+// scan, one scan per 0.1 m, collapses a global belief within a metre of travel onto whichever of two look-alike
+// rooms a particle happened to fit best. Measured on the simulated office's 10 test routes: 9 converge with
+// 0.2, 8 with 1 (docs/filter.md).
+inline EndpointModel filter_sensor_model() {
+  EndpointModel m;
+  m.weight_exponent = 0.2f;
+  return m;
+}
+
+// Global localization from a scan: a large set of hypotheses from the proposal (global_proposal.hpp), each
+// scored on a few points of the scan with a wide likelihood, the best kept as the initial particles. Scoring
+// a million hypotheses on 64 points costs what 125,000 particles cost on 512, and covers the map eight times
+// as densely. The wide sigma (about the map's truncation) lets a hypothesis a few decimetres or degrees off
+// still score: the narrow one would rank it with the wrong places.
+struct GlobalSearchOptions {
+  std::size_t candidates = 1000000;  // hypotheses scored (fewer than the initial particles: no screening)
+  std::size_t screen_points = 64;    // points of the scan they are scored on
+  float screen_sigma = 0.3f;         // m
+  // Then every kept hypothesis climbs: per round, three jittered copies (0.1 m / 1.7° in the first round, half
+  // that in the second) scored on twice the points, and it moves to the best of the four. Each hypothesis
+  // climbs on its own, so a look-alike keeps its place beside the right one while both get aligned.
+  std::size_t climb_rounds = 2;
+  ProposalOptions proposal;
+
+  void validate() const;  // throws Error naming the parameter
+};
+
+// What the global search may use of a scan besides the points of the sensor update.
+struct ScanExtras {
+  const std::vector<Eigen::Vector3f>* dense = nullptr;  // the scan before thinning (sensor frame)
+  std::optional<Eigen::Vector3f> imu_up;                // gravity from an IMU: up in the sensor frame
+};
+
+struct FilterParameters {
+  std::size_t initial_particles = 100000;  // particles of a global or local initialization
+  KldParameters kld;                       // min_particles, max_particles, pf_err, pf_z, bins
+  ResamplingMethod resample_method = ResamplingMethod::kSystematic;
+  // Resampling is considered every resample_interval-th update, and done when the effective sample size is
+  // below resample_ess_ratio * particles, when recovery injects particles, or when KLD-sampling wants a
+  // particle count outside [particles / 2, particles] (the count only changes by resampling).
+  std::size_t resample_interval = 1;
+  double resample_ess_ratio = 0.5;
+  // Recovery (augmented MCL): round(share * max_particles) particles from the proposal join the next
+  // generation, carrying `share` of the belief, with share = 1 - w_fast / (w_slow (1 - recovery_margin)) clamped
+  // to [0, 1] (see recovery.hpp). The count scales with max_particles, not with the current count, so a lost
+  // track's hypotheses cover the map; the weight they carry follows the evidence, so a brief dip moves little of
+  // the belief. The fit averaged is the dominant hypothesis's inlier ratio (scan_fit.hpp), from the first
+  // convergence on. Both alphas 0 = off.
+  double recovery_alpha_slow = 0.02;
+  double recovery_alpha_fast = 0.1;
+  double recovery_margin = 0.3;
+  // sigma_hit, z_hit, z_rand, max_range (= laser_max_range), weight_exponent (0.2: filter_sensor_model).
+  EndpointModel sensor = filter_sensor_model();
+  // Scan points in unknown space count as if they lay at the map's truncation distance from a surface, like
+  // points in observed free space (sensor.unknown_distance is set from the map), instead of as misses (p_rand).
+  // A map leaves unknown what its mapping run did not see: the ceiling above a drone flying higher than the
+  // mapping robot drove, a room seen through its door only. As misses, those points cost the true pose more
+  // than a look-alike's points in free space cost it, and the look-alike won (the simulated office, handheld and
+  // drone runs on a ground robot's map, docs/filter.md).
+  bool unknown_as_free = true;
+  // Adaptive tempering: if the weights of an update would leave fewer than min_ess_ratio * particles
+  // effective particles (particles injected by recovery in the last resampling not counted), its
+  // log-likelihoods are scaled down until they do not. Keeps a peaky likelihood from collapsing the set onto a
+  // few lucky particles. 0 = off.
+  double min_ess_ratio = 0.1;
+  // Subset first (subset_first.hpp): sets of at least subset_first.min_particles are weighed on
+  // subset_first.points of the scan first, and only the best subset_first.share on the whole scan.
+  SubsetFirstOptions subset_first;
+  MotionParameters motion;
+  double update_min_d = 0.1;  // m
+  double update_min_a = 0.1;  // rad
+  // Until the filter first converges after an initialization, every update adds a random walk of these
+  // standard deviations per axis on top of the motion noise, and a scan the motion gate would hold is still an
+  // update once roughening_interval has passed since the last one. A global belief is sparse: its particles
+  // nearest the true pose are typically decimetres and degrees off, where the likelihood of hundreds of points
+  // cannot tell them from a wrong place. Roughening lets them climb the likelihood over a few scans before
+  // selection judges them, also while the robot stands still. The interval keeps a fast sensor (20 Hz) from
+  // judging the same view again and again, which locks onto a wrong place in a symmetric building.
+  // 0 = off.
+  double roughening_xyz = 0.1;       // m
+  double roughening_angle = 0.04;    // rad
+  double roughening_interval = 1.0;  // s
+  // Hypotheses (hypothesis_weighting.hpp): between modes of the belief a scan is worth this many independent
+  // points of evidence (fewer while the tempering counts it as fewer), each point's evidence its log-likelihood
+  // at the mode's mean pose refined onto the map (scan_fit.hpp). Each of the heaviest modes
+  // (PoseEstimateOptions::max_hypotheses) holding at least hypothesis_min_weight of the belief keeps at least
+  // hypothesis_min_particles particles through resampling, whatever its share: a look-alike room is not lost to
+  // resampling noise before a view tells the rooms apart.
+  double hypothesis_evidence_points = 16.0;
+  std::size_t hypothesis_min_particles = 200;
+  double hypothesis_min_weight = 1e-5;
+  // A scan point is an inlier (scan_fit.hpp) within this distance of a surface (m).
+  float inlier_distance = 0.2f;
+  ConvergenceOptions convergence;
+  // Recovery from an implausible fit: once the belief has concentrated, a dominant hypothesis whose inlier
+  // ratio stays below this for two updates is a wrong lock however steady its fit: a share 1 - ratio / this
+  // of the next generation comes from the proposal (screened on the scan) and the filter searches again.
+  // 0 = off.
+  double recovery_min_inliers = 0.3;
+  // Challengers (a background global search, once the belief has concentrated): every challenger_interval
+  // seconds, challenger_candidates hypotheses from the proposal are screened on the scan and the best
+  // 1/200 of them join the belief with a share of converged_competitor_weight / 10 together, and the particles outside
+  // the heaviest hypotheses keep at least that many places through resampling: a pool that keeps searching.
+  // A place that explains the scans better than the track gains share by the evidence and becomes a
+  // hypothesis (a competitor, then the track); where the track is right they fit worse and stay negligible.
+  // This is what lets a filter leave a wrong lock whose fit looks plausible. 0 candidates = off.
+  std::size_t challenger_candidates = 20000;
+  double challenger_interval = 0.5;  // s
+  // A jump needs proof (track_keeper.hpp): once converged, the track is only left for a challenger that explains
+  // the scans better over track.proof_travel_m of travel, judged on the points observed under both poses.
+  TrackKeeperOptions track;
+  // TrackState::kAmbiguous also when the second hypothesis holds at least this share of the belief.
+  double ambiguous_weight = 0.1;
+  GlobalInitOptions global_init;
+  GlobalSearchOptions global_search;
+  LocalInitSpread local_init;
+  PoseEstimateOptions estimate;
+  std::uint64_t seed = 0;
+
+  void validate() const;  // throws Error naming the parameter
+};
+
+struct StepTimings {
+  double motion_ms = 0.0;
+  double upload_ms = 0.0;      // scan points into the evaluator
+  double weight_ms = 0.0;      // evaluator: weighting + reduction, host wall time
+  double weight_gpu_ms = 0.0;  // GPU timestamps (NaN without)
+  double reduce_gpu_ms = 0.0;
+  double reduce_ms = 0.0;    // host: tempering, normalization, recovery averages, pose estimate
+  double resample_ms = 0.0;  // KLD count, resampling, injection
+  double total_ms = 0.0;
+};
+
+struct FilterStep {
+  bool updated = false;  // false: the motion gate held this scan back; only the estimate moved
+  bool resampled = false;
+  std::size_t particles = 0;       // particles weighted in this update
+  std::size_t next_particles = 0;  // after resampling
+  std::size_t kld_bins = 0;        // bins occupied by the weighted set (when resampled)
+  std::size_t injected = 0;        // random particles from recovery
+  std::size_t points = 0;
+  double ess = 0.0;        // effective sample size after tempering
+  double tempering = 1.0;  // the adaptive factor applied to the log-likelihoods
+  double fit = 0.0;        // mean per-point geometric-mean likelihood over particles (diagnostic)
+  double w_slow = 0.0;
+  double w_fast = 0.0;
+  double random_share = 0.0;    // share of the next generation from the proposal (recovery)
+  bool concentrated = false;    // the dominant hypothesis holds converged_weight and is compact
+  bool implausible = false;     // ... and its inlier ratio is below recovery_min_inliers
+  bool challenged = false;      // another hypothesis explains the scan nearly as well (convergence.hpp)
+  std::size_t challengers = 0;  // particles of the background search added in this update
+  std::size_t restored = 0;     // particles put back on the track after a disproven challenger
+  // The published estimate stays on the track against a dominant hypothesis elsewhere that is not proven yet
+  // (track_keeper.hpp); the challenge's paired evidence (nats) and travel (m) so far.
+  bool holding = false;
+  double challenge_evidence = 0.0;
+  double challenge_travel = 0.0;
+  TrackState state = TrackState::kSearching;  // what the filter can say about its track (track_state.hpp)
+  StepTimings timings;
+  PoseEstimate estimate;
+};
+
+class ParticleFilter {
+ public:
+  // Reserves the evaluator's buffers for max(initial, max) particles and `points_hint` points up front; the
+  // map and the evaluator must outlive the filter.
+  ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, const FilterParameters& params,
+                 std::size_t points_hint = 512);
+
+  // Uniform over the map's free space (within the tilt and height priors of global_init), no scan needed.
+  void initialize_global();
+  // Global search guided by the first scan (GlobalSearchOptions): `points` as for update(), `extras.dense`
+  // the same scan before thinning, for its up direction and floor height.
+  void initialize_global(const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras);
+  void initialize_local(const Pose& world_T_sensor);
+  // ... with another spread than params().local_init (an initial pose given with its covariance).
+  void initialize_local(const Pose& world_T_sensor, const LocalInitSpread& spread);
+
+  // One scan: `points` in the sensor frame (preprocessed, non-empty, finite); `odometry` = odom_T_sensor
+  // at the scan (required by the odometry motion model, ignored otherwise). `extras` guide recovery's
+  // hypotheses like a global search's.
+  FilterStep update(double time, const std::vector<Eigen::Vector3f>& points, const std::optional<Pose>& odometry,
+                    const ScanExtras& extras = {});
+
+  // The next update() weighs the scan even if the motion gate would hold it (nav2's request_nomotion_update).
+  void request_update() { force_update_ = true; }
+
+  bool initialized() const { return initialized_; }
+  std::size_t particle_count() const { return count_; }
+  const PoseEstimate& estimate() const { return estimate_; }
+  TrackState state() const { return state_; }  // of the last scan (track_state.hpp)
+  const FilterParameters& params() const { return params_; }
+  // The active particle set (views stay valid until the next update or initialization).
+  ParticleArrays particles() const { return evaluator_.particles(); }
+  // The active particles' weights, normalized (uniform right after resampling).
+  std::vector<double> particle_weights() const;
+  // Number of free-space voxels global initialization and recovery sample from (builds the table).
+  std::size_t free_space_voxels();
+  // The gravity and height candidates of the last global search or recovery (empty: uniform).
+  const std::vector<GravityCandidate>& gravity_candidates() { return proposal().candidates(); }
+
+ private:
+  GlobalProposal& proposal();
+  void start(std::size_t count);
+  void prepare_weights(std::size_t n, FilterStep& step);
+  void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  double belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const;
+  double judge_fit(FilterStep& step);
+  // The track keeper's turn (track_keeper.hpp) after the convergence test: may move the estimate back onto the
+  // track and schedule particles for it.
+  void keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  TrackState classify(const FilterStep& step) const;
+  double evidence_dead_band() const;  // what a point inlier_distance off a surface loses (nats)
+  // A track that was converged at the last update where the map covered the scan: only such a track tracks
+  // through unmapped space (its fit is judged on the observed points, and not at all where the map covers too
+  // little). Any other belief is judged on the inlier share of all its points: a lost track that drifts out of
+  // the map must not pass for one in an unmapped room.
+  bool trusted_track() const { return keeper_.active() && trusted_; }
+  double judged_ratio() const;
+  // Particles from the proposal that join the next generation (recovery, challengers).
+  struct Injection {
+    std::size_t count = 0;
+    std::size_t candidates = 0;  // screened down to `count` from this many; count = drawn as they come
+    double share = 0.0;          // of the belief, all of them together
+    std::optional<Pose> around;  // drawn near this pose (the track), not from the proposal
+  };
+  Injection plan_injection(double time, const FilterStep& step) const;
+  void resample(std::size_t n, std::size_t budget, const Injection& injection,
+                const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // A screened search: `candidates` hypotheses from the proposal, block by block (global_proposal.hpp), each
+  // block scored with a wide likelihood on the scan points that tell its hypotheses apart; the best `keep`,
+  // shared between the blocks by their mixture weights, go to dst[offset, offset + keep). The active particle
+  // set is the scratch space.
+  void search(std::size_t candidates, std::size_t keep, const std::vector<Eigen::Vector3f>& points,
+              const ParticleArrays& dst, std::size_t offset);
+  // Grows the evaluator for the largest block such a search samples at once (invalidates particle views).
+  void reserve_search(std::size_t candidates);
+  // The kept hypotheses [0, n) of a global search climb the likelihood of `points` (GlobalSearchOptions).
+  void climb(std::size_t n, const std::vector<Eigen::Vector3f>& points);
+
+  const TsdfMap& map_;
+  SensorEvaluator& evaluator_;
+  FilterParameters params_;
+  std::unique_ptr<GlobalProposal> proposal_;
+  KldSampler kld_;
+  PoseEstimator estimator_;
+  RecoveryMonitor recovery_;
+  ConvergenceMonitor convergence_;
+  TrackKeeper keeper_;
+  bool restore_pending_ = false;  // the next resampling puts particles back on the track
+  bool trusted_ = false;          // converged at the last update with enough map coverage (trusted_track())
+  Matrix6d track_covariance_ = Matrix6d::Zero();
+  GroupResampler group_resampler_;
+
+  std::size_t capacity_ = 0;
+  std::size_t points_capacity_ = 0;
+  std::size_t count_ = 0;
+  bool initialized_ = false;
+  std::uint64_t step_ = 0;  // filter updates so far: part of every random stream's name
+  std::size_t updates_since_resample_ = 0;
+  std::size_t injected_begin_ = 0;  // particles [injected_begin_, injected_end_) came from recovery
+  std::size_t injected_end_ = 0;
+  bool ever_converged_ = false;     // since the last initialization or re-spread
+  bool ever_concentrated_ = false;  // likewise
+  std::size_t implausible_streak_ = 0;
+  double last_challenge_time_ = -1e300;
+  bool challengers_weighed_ = false;  // a background search's particles have been through an update
+
+  std::vector<double> prior_log_weight_;  // carried between updates that do not resample
+  std::vector<double> post_log_weight_;   // this update's: prior + tempered likelihood, shifted per hypothesis
+  std::vector<double> weights_;           // exp(post - max)
+  std::vector<std::int32_t> group_;       // hypothesis of each particle; hypotheses.size() = none of them
+  std::vector<double> group_share_;       // share of each group after the between-hypothesis tempering
+  std::vector<std::uint32_t> ancestors_;
+  SubsetFirstWeighing subset_first_;
+  // The dominant hypothesis's per-point log-likelihoods and map evidence flags at its refined pose (this update).
+  std::vector<double> top_log_;
+  std::vector<std::uint8_t> top_observed_;
+
+  // Motion bookkeeping at the last filter update.
+  bool has_update_ = false;
+  bool force_update_ = false;
+  double last_time_ = 0.0;
+  std::optional<Pose> last_odometry_;
+  Pose last_estimate_pose_ = Pose::Identity();
+  // Constant-velocity model: the estimated motion between the last two updates and its duration.
+  std::optional<Pose> velocity_delta_;
+  double velocity_dt_ = 0.0;
+
+  PoseEstimate estimate_;
+  TrackState state_ = TrackState::kSearching;
+};
+
+}  // namespace tsdf_mcl

@@ -1,0 +1,76 @@
+#pragma once
+// An absolute measure of how well a scan fits the map at a pose: the share of its points that land near a
+// surface. Unlike the likelihood, it means the same on every map and scan (1 = every point explained, 0 =
+// none), so a threshold calibrated on data can say "this fit is implausible for a correct track".
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
+
+namespace tsdf_mcl {
+
+// Share of `points` (sensor frame) whose nearest voxel at world_T_sensor holds a known distance of at most
+// `max_distance` (m) in magnitude. Points in unknown space or outside the map count as not explained.
+double inlier_ratio(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,
+                    float max_distance);
+
+// What the scan's rays say about a pose, beyond where they end. A point far from every surface is weak
+// evidence against a pose (an unmapped person, a door opened since mapping, a part of the building the map never
+// saw); a ray that passes through a wall of the map well before its end is strong evidence: at the true pose
+// the sensor saw through that wall only where glass or a change since mapping lets it. Wrong places that fit
+// the scan's near surfaces well (a corridor's mirror image, a room one floor lower) see through walls with a
+// large share of their rays.
+//
+// Map evidence: a point whose endpoint lands in space the map never observed (an unallocated block, the unknown
+// sentinel) after its ray crossed only free or unknown space says nothing about the pose: a room the mapping run
+// skipped, the world beyond the map's edge. It is `unobserved`. An endpoint in unknown space behind a surface
+// the ray met on its way (a negative distance: the inside of a wall, which a TSDF leaves unknown beyond its
+// band, or the world outside an outer wall) is evidence: a miss.
+struct RayFit {
+  std::size_t points = 0;
+  std::size_t observed = 0;     // points with map evidence (everything but the unobserved ones)
+  std::size_t inliers = 0;      // endpoint within max_distance of a surface
+  std::size_t see_through = 0;  // the ray entered the inside of a surface well before its endpoint
+  // Share of the points with map evidence that are inliers (0 without any).
+  double inlier_ratio() const { return observed ? static_cast<double>(inliers) / static_cast<double>(observed) : 0.0; }
+  // Share of all points that are inliers: what a pose explains of the whole scan.
+  double absolute_inlier_ratio() const {
+    return points ? static_cast<double>(inliers) / static_cast<double>(points) : 0.0;
+  }
+  // Share of the points with map evidence: 1 = the map covers the whole scan, 0 = none of it.
+  double coverage() const { return points ? static_cast<double>(observed) / static_cast<double>(points) : 0.0; }
+  double see_through_ratio() const {
+    return points ? static_cast<double>(see_through) / static_cast<double>(points) : 0.0;
+  }
+};
+// Marches every ray from the sensor to its endpoint through the map (steps of the map's distance where it is
+// known and positive, so free space costs little). A ray counts as seeing through once it is more than two
+// voxels inside a surface at a point more than `end_margin` (m) before its endpoint.
+// `observed`, if given, receives one flag per point: 1 = map evidence, 0 = unobserved.
+RayFit ray_fit(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,
+               float max_distance, float end_margin = 0.4f, std::vector<std::uint8_t>* observed = nullptr);
+
+// Paired evidence between two poses on one scan: the sum over the points with map evidence under BOTH poses of
+// the log-likelihood difference (a minus b) beyond `dead_band` (what a point a little off a surface loses; the
+// sign kept). A point unobserved under either pose counts for neither: a pose that pushes points out of the map
+// gains nothing by it (a plain sum over each pose's own observed points would reward it with fewer negative
+// terms), and a room the map never saw cannot favour a mapped look-alike.
+struct PairedEvidence {
+  double sum = 0.0;        // nats, positive: a explains the shared points better
+  std::size_t shared = 0;  // points observed under both
+};
+PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vector<std::uint8_t>& observed_a,
+                               const std::vector<double>& log_b, const std::vector<std::uint8_t>& observed_b,
+                               double dead_band);
+
+// The pose near `world_T_sensor` at which `points` fit the map best: a few damped Gauss-Newton steps on their
+// distances (trilinear, Huber-weighted beyond 0.1 m; points in unknown space or beyond the truncation band take
+// no part). Comparing two hypotheses at their refined poses compares the places, not how well each hypothesis's
+// particles happen to be aligned: the one with more particles has the better-placed mean. Returns the input
+// pose where too few points constrain it.
+Pose refine_pose(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,
+                 int iterations = 6);
+
+}  // namespace tsdf_mcl

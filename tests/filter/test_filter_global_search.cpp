@@ -1,0 +1,244 @@
+// Global localization without priors on synthetic buildings: gravity and height from the scan, the screened
+// global search, a building of two identical wings (ambiguous until one feature comes into view), a forced
+// wrong lock that must be abandoned. CPU backend (deterministic and fast).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "filter_test_scene.hpp"
+#include "tsdf_mcl/backends/make_evaluator.hpp"
+#include "tsdf_mcl/filter/particle_filter.hpp"
+#include "tsdf_mcl/filter/scan_gravity.hpp"
+#include "tsdf_mcl/filter/scan_preprocessing.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kScanPeriod = 0.5;  // s
+
+using test::Box;
+
+Pose mirrored(const Pose& p) {
+  Pose m = Pose::Identity();
+  m.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix() * p.linear();
+  m.translation() = Eigen::Vector3d(24.0 - p.translation().x(), 8.0 - p.translation().y(), p.translation().z());
+  return m;
+}
+
+// From room A through its door and along the corridor past the niche: 0.3 m steps, yaw along the path.
+std::vector<Pose> twin_wing_route() {
+  const std::vector<Eigen::Vector2d> waypoints = {{1.5, 3.0}, {4.5, 4.0}, {6.1, 4.0}, {16.5, 4.0}};
+  std::vector<Pose> poses;
+  for (std::size_t seg = 0; seg + 1 < waypoints.size(); ++seg) {
+    const Eigen::Vector2d a = waypoints[seg], b = waypoints[seg + 1];
+    const double yaw = std::atan2((b - a).y(), (b - a).x());
+    for (double s = 0.0; s < (b - a).norm(); s += 0.3) {
+      const Eigen::Vector2d p = a + s * (b - a).normalized();
+      const double t = static_cast<double>(poses.size());
+      poses.push_back(pose_from_xyz_rpy(p.x(), p.y(), 0.9 + 0.03 * std::sin(0.3 * t), 0.02 * std::sin(0.5 * t),
+                                        0.02 * std::cos(0.4 * t), yaw));
+    }
+  }
+  return poses;
+}
+
+// TSDF_MCL_TEST_DEBUG=1 prints every step (for tuning, never in CI).
+void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
+  if (!std::getenv("TSDF_MCL_TEST_DEBUG")) return;
+  std::fprintf(
+      stderr, "step %zu: err %.2f m conv %d conc %d impl %d chal %d inl %.2f n %zu->%zu inj %zu+%zu beta %.3g |", i,
+      test::translation_error(s.estimate.pose, truth), s.estimate.converged, s.concentrated, s.implausible,
+      s.challenged, s.estimate.inlier_ratio, s.particles, s.next_particles, s.injected, s.challengers, s.tempering);
+  for (const Hypothesis& h : s.estimate.hypotheses) {
+    std::fprintf(stderr, " %.3f@(%.1f,%.1f)i%.2f", h.weight, h.pose.translation().x(), h.pose.translation().y(),
+                 h.inlier_ratio);
+  }
+  std::fprintf(stderr, "\n");
+}
+
+std::unique_ptr<SensorEvaluator> cpu_evaluator(const TsdfMap& map) {
+  EvaluatorOptions o;
+  o.backend = Backend::kCpu;
+  o.cpu_threads = 2;
+  return make_evaluator(map, o);
+}
+
+// Defaults but for the sizes: a small building needs fewer hypotheses.
+FilterParameters prior_free() {
+  FilterParameters p;
+  p.initial_particles = 20000;
+  p.kld.max_particles = 20000;
+  p.kld.min_particles = 300;
+  p.global_search.candidates = 200000;
+  p.update_min_d = 0.0;
+  p.update_min_a = 0.0;
+  return p;
+}
+
+// Scans of a route: dense (for the gravity estimate) and preprocessed (for the sensor update).
+struct Scans {
+  std::vector<std::vector<Eigen::Vector3f>> dense, points;
+};
+Scans scan_route(const std::vector<Box>& boxes, const std::vector<Pose>& route, std::uint64_t seed) {
+  Rng rng(seed);
+  ScanPreprocessing o;
+  o.max_beams = 256;
+  ScanPreprocessor pre(o);
+  Scans s;
+  for (std::size_t i = 0; i < route.size(); ++i) {
+    s.dense.push_back(test::simulate_scan(boxes, route[i], rng));
+    s.points.push_back(pre.process(s.dense.back(), i));
+  }
+  return s;
+}
+
+TEST(ScanGravity, FindsUpAndHeightOnTiltedAndSidewaysSensors) {
+  const std::vector<Box> boxes = test::office_boxes();
+  Rng rng(11);
+  // (x, y, z, roll, pitch, yaw): level, tilted like a drone or a handheld sensor, mounted sideways, upside down.
+  const std::vector<std::array<double, 6>> poses = {
+      {2.0, 1.2, 0.5, 0.0, 0.0, 0.3},    {8.0, 3.6, 1.5, 0.2, -0.15, 2.0}, {12.0, 3.5, 1.1, -0.35, 0.1, -1.0},
+      {3.0, 5.0, 0.9, 1.5708, 0.0, 0.7}, {9.6, 7.5, 1.3, 0.0, -1.2, 1.2},  {5.2, 3.0, 1.8, 3.1416, 0.0, 0.0},
+  };
+  for (const auto& v : poses) {
+    const Pose pose = pose_from_xyz_rpy(v[0], v[1], v[2], v[3], v[4], v[5]);
+    // An OS0-like field of view (+-45 deg): it sees the floor close by whatever the tilt.
+    const GravityEstimate g = estimate_gravity(test::simulate_scan(boxes, pose, rng, 32, 360, 0.01f, 45.0f));
+    const Eigen::Vector3f up = (pose.linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+    const GravityCandidate* match = nullptr;
+    for (const GravityCandidate& c : g.candidates) {
+      if (std::acos(std::clamp(c.up.dot(up), -1.0f, 1.0f)) < 2.0 * kDeg) match = &c;
+    }
+    ASSERT_NE(match, nullptr) << "no candidate within 2 deg of up at roll " << v[3] << " pitch " << v[4];
+    EXPECT_LE(g.candidates.size(), 6u);
+    ASSERT_TRUE(match->has_height) << "no floor below at roll " << v[3] << " pitch " << v[4];
+    EXPECT_NEAR(match->height, v[2], 0.1) << "sensor height at roll " << v[3] << " pitch " << v[4];
+  }
+  // No planes: no candidate (the caller falls back to rotations uniform over SO(3)).
+  std::vector<Eigen::Vector3f> cloud;
+  for (int i = 0; i < 5000; ++i) {
+    cloud.emplace_back(static_cast<float>(rng.uniform(-8, 8)), static_cast<float>(rng.uniform(-8, 8)),
+                       static_cast<float>(rng.uniform(-8, 8)));
+  }
+  EXPECT_TRUE(estimate_gravity(cloud).candidates.empty());
+  // A known up (IMU) gives that one candidate, with the height the scan shows along it.
+  const Pose level = pose_from_xyz_rpy(2.0, 1.2, 0.7, 0.0, 0.0, 0.3);
+  const GravityEstimate imu = estimate_gravity(test::simulate_scan(boxes, level, rng), {}, Eigen::Vector3f::UnitZ());
+  ASSERT_EQ(imu.candidates.size(), 1u);
+  EXPECT_TRUE(imu.candidates[0].up.isApprox(Eigen::Vector3f::UnitZ()));
+  EXPECT_NEAR(imu.candidates[0].height, 0.7, 0.1);
+}
+
+// No tilt, no height band, no initial guess: the first scan's structure guides the search.
+TEST(GlobalSearch, LocalizesWithoutPriorsAndClaimsConvergenceOnlyWhenRight) {
+  const std::vector<Box> boxes = test::office_boxes();
+  const TsdfMap map = test::make_office_map();
+  const std::vector<Pose> truth = test::office_trajectory(40);
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 5);
+  const Scans scans = scan_route(boxes, truth, 3);
+  auto eval = cpu_evaluator(map);
+  ParticleFilter filter(map, *eval, prior_free(), 256);
+  ScanExtras extras;
+  extras.dense = &scans.dense[0];
+  filter.initialize_global(scans.points[0], extras);
+  EXPECT_GE(filter.gravity_candidates().size(), 2u);
+  std::size_t first_converged = truth.size();
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    extras.dense = &scans.dense[i];
+    const FilterStep step = filter.update(kScanPeriod * static_cast<double>(i), scans.points[i], odometry[i], extras);
+    debug_step(i, step, truth[i]);
+    const double error = test::translation_error(step.estimate.pose, truth[i]);
+    if (step.estimate.converged) {
+      first_converged = std::min(first_converged, i);
+      EXPECT_LT(error, 0.3) << "converged while wrong at step " << i;
+      EXPECT_LT(test::rotation_error(step.estimate.pose, truth[i]), 5 * kDeg) << "step " << i;
+    }
+  }
+  EXPECT_LE(first_converged, 10u);
+  EXPECT_TRUE(filter.estimate().converged);
+}
+
+// The two wings look the same until the niche with the cabinet comes into view: before that the belief must
+// hold both (a hypothesis at the true pose and one at its mirror image) and never claim convergence; after it,
+// converge at the true pose.
+TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
+  const TsdfMap map =
+      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
+  const std::vector<Pose> truth = twin_wing_route();
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
+  const Scans scans = scan_route(boxes, truth, 5);
+  auto eval = cpu_evaluator(map);
+  ParticleFilter filter(map, *eval, prior_free(), 256);
+  ScanExtras extras;
+  extras.dense = &scans.dense[0];
+  filter.initialize_global(scans.points[0], extras);
+  bool both_held = false;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    extras.dense = &scans.dense[i];
+    const FilterStep step = filter.update(kScanPeriod * static_cast<double>(i), scans.points[i], odometry[i], extras);
+    debug_step(i, step, truth[i]);
+    const double x = truth[i].translation().x();
+    const auto weight_near = [&](const Pose& p) {
+      double w = 0.0;
+      for (const Hypothesis& h : step.estimate.hypotheses) {
+        if (test::translation_error(h.pose, p) < 0.5 && test::rotation_error(h.pose, p) < 10 * kDeg) w += h.weight;
+      }
+      return w;
+    };
+    if (x < 9.0) {
+      EXPECT_FALSE(step.estimate.converged)
+          << "converged at step " << i << " (x " << x << ") before the cabinet was in view";
+      if (i >= 8 && weight_near(truth[i]) > 0.01 && weight_near(mirrored(truth[i])) > 0.01) both_held = true;
+    }
+    if (x > 13.0) {
+      EXPECT_TRUE(step.estimate.converged) << "step " << i << " (x " << x << ")";
+      EXPECT_LT(test::translation_error(step.estimate.pose, truth[i]), 0.2) << "step " << i;
+    }
+    if (step.estimate.converged) {
+      EXPECT_LT(test::translation_error(step.estimate.pose, truth[i]), 1.0) << "false convergence at step " << i;
+    }
+  }
+  EXPECT_TRUE(both_held) << "the belief never held both wings while they looked alike";
+}
+
+// Forced onto a wrong place (5 m off in the asymmetric office), the filter must notice the poor fit, search
+// again and find the true pose, without claiming convergence at the wrong place.
+TEST(GlobalSearch, AbandonsAForcedWrongLock) {
+  const std::vector<Box> boxes = test::office_boxes();
+  const TsdfMap map = test::make_office_map();
+  const std::vector<Pose> truth = test::office_trajectory(50);
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 9);
+  const Scans scans = scan_route(boxes, truth, 4);
+  auto eval = cpu_evaluator(map);
+  FilterParameters p = prior_free();
+  ParticleFilter filter(map, *eval, p, 256);
+  Pose wrong = truth[0];
+  wrong.translation() += Eigen::Vector3d(4.0, 3.0, 0.0);
+  filter.initialize_local(wrong);
+  std::size_t recovered = truth.size();
+  std::size_t searched = 0;
+  ScanExtras extras;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    extras.dense = &scans.dense[i];
+    const FilterStep step = filter.update(kScanPeriod * static_cast<double>(i), scans.points[i], odometry[i], extras);
+    debug_step(i, step, truth[i]);
+    searched += step.injected + step.challengers;
+    const double error = test::translation_error(step.estimate.pose, truth[i]);
+    if (step.estimate.converged) {
+      EXPECT_LT(error, 0.3) << "converged while wrong at step " << i;
+      recovered = std::min(recovered, i);
+    }
+  }
+  EXPECT_GT(searched, 0u) << "the wrong lock was never questioned";
+  EXPECT_LE(recovered, 25u);
+  EXPECT_TRUE(filter.estimate().converged);
+  EXPECT_LT(test::translation_error(filter.estimate().pose, truth.back()), 0.2);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl

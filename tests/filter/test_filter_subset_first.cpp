@@ -1,0 +1,155 @@
+// Subset-first weighing (subset_first.hpp): which particles get the whole scan, what the others keep, and that
+// the two passes agree between the CPU evaluator and endpoint_weight.comp on lavapipe (validation layers on).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "sensor_test_support.hpp"
+#include "tsdf_mcl/cpu/cpu_evaluator.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/subset_first.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+constexpr std::size_t kParticles = 3001;  // odd: the refined share and the SIMD groups end mid-way
+constexpr std::size_t kPoints = 203;
+
+SubsetFirstOptions small_sets() {
+  SubsetFirstOptions o;
+  o.points = 24;
+  o.share = 0.25;
+  o.min_particles = 1000;
+  return o;
+}
+
+EndpointModel tempered_model() {
+  EndpointModel m;
+  m.sigma_hit = 0.12f;
+  m.weight_exponent = 0.3f;
+  return m;
+}
+
+struct Scene {
+  TsdfMap map = test::make_room_map();
+  std::vector<float> positions;  // the random particles, to place them in any evaluator
+  std::vector<Eigen::Vector3f> scan;
+  Scene() {
+    std::mt19937 rng(11);
+    std::vector<float> storage(8 * kParticles);
+    const ParticleArrays p = ParticleArrays::over(storage.data(), kParticles);
+    test::random_particles(p, kParticles, rng, Eigen::Vector3f(-3.4f, -2.4f, -0.3f), Eigen::Vector3f(3.4f, 2.4f, 3.3f));
+    positions = storage;
+    scan = test::random_scan(kPoints, rng);
+  }
+  void place(SensorEvaluator& e) const {
+    e.reserve(kParticles, kPoints);
+    const ParticleArrays from = ParticleArrays::over(const_cast<float*>(positions.data()), kParticles);
+    for (std::size_t i = 0; i < kParticles; ++i) e.particles().set(i, from.position(i), from.rotation(i));
+  }
+};
+
+std::vector<float> log_weights(SensorEvaluator& e, std::size_t n) {
+  const ParticleArrays p = e.particles();
+  return std::vector<float>(p.log_weight, p.log_weight + n);
+}
+
+TEST(SubsetFirst, TheBestShareGetsTheWholeScanTheRestTheScaledSubset) {
+  const Scene s;
+  const EndpointModel model = tempered_model();
+  // What each particle scores on the whole scan, and on the first pass's points scaled to the whole scan.
+  CpuEvaluator reference(s.map, 2);
+  s.place(reference);
+  reference.set_points(s.scan);
+  reference.evaluate(kParticles, model, Eigen::Quaternionf::Identity());
+  const std::vector<float> whole = log_weights(reference, kParticles);
+  std::vector<Eigen::Vector3f> subset;
+  for (std::size_t j = 0; j < 24; ++j) subset.push_back(s.scan[j * kPoints / 24]);
+  EndpointModel scaled = model;
+  scaled.weight_exponent = model.weight_exponent * static_cast<float>(kPoints) / 24.0f;
+  reference.set_points(subset);
+  reference.evaluate(kParticles, scaled, Eigen::Quaternionf::Identity());
+  const std::vector<float> first = log_weights(reference, kParticles);
+
+  CpuEvaluator cpu(s.map, 2);
+  s.place(cpu);
+  SubsetFirstWeighing weighing(small_sets());
+  ASSERT_TRUE(weighing.applies(kParticles, kPoints, model));
+  UpdateTimings timings;
+  const WeightSummary summary =
+      weighing.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), &timings);
+  const std::vector<std::uint32_t>& refined = weighing.refined();
+  ASSERT_EQ(refined.size(), 751u);  // ceil(0.25 * 3001)
+  ASSERT_TRUE(std::is_sorted(refined.begin(), refined.end()));
+  std::vector<bool> is_refined(kParticles, false);
+  for (std::uint32_t i : refined) is_refined[i] = true;
+  float lowest_refined = 1e30f, highest_other = -1e30f;
+  const std::vector<float> got = log_weights(cpu, kParticles);
+  for (std::size_t i = 0; i < kParticles; ++i) {
+    const float expected = is_refined[i] ? whole[i] : first[i];
+    ASSERT_NEAR(got[i], expected, 1e-5f * std::abs(expected) + 1e-5f) << "particle " << i;
+    if (is_refined[i])
+      lowest_refined = std::min(lowest_refined, first[i]);
+    else
+      highest_other = std::max(highest_other, first[i]);
+  }
+  EXPECT_GE(lowest_refined, highest_other) << "the refined particles are the first pass's best";
+  EXPECT_NEAR(summary.max_log_weight, *std::max_element(got.begin(), got.end()), 1e-5);
+  EXPECT_GT(timings.evaluate_ms, 0.0);
+  // The particles themselves are untouched (the second pass ran on copies in the spare set).
+  const ParticleArrays original = ParticleArrays::over(const_cast<float*>(s.positions.data()), kParticles);
+  for (std::size_t i = 0; i < kParticles; i += 97) EXPECT_EQ(cpu.particles().position(i), original.position(i));
+}
+
+TEST(SubsetFirst, SmallSetsAndTheSummedFormAreWeighedWhole) {
+  const Scene s;
+  SubsetFirstWeighing weighing(small_sets());
+  EndpointModel model = tempered_model();
+  EXPECT_FALSE(weighing.applies(999, kPoints, model)) << "below min_particles";
+  EXPECT_FALSE(weighing.applies(kParticles, 47, model)) << "a scan of fewer than twice the first pass's points";
+  model.likelihood = Likelihood::kSum;
+  EXPECT_FALSE(weighing.applies(kParticles, kPoints, model)) << "the summed form does not scale with the points";
+  CpuEvaluator cpu(s.map, 2), reference(s.map, 2);
+  s.place(cpu);
+  s.place(reference);
+  weighing.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
+  EXPECT_TRUE(weighing.refined().empty());
+  reference.set_points(s.scan);
+  reference.evaluate(kParticles, model, Eigen::Quaternionf::Identity());
+  EXPECT_EQ(log_weights(cpu, kParticles), log_weights(reference, kParticles));
+  SubsetFirstOptions bad = small_sets();
+  bad.share = 0.0;
+  EXPECT_THROW(SubsetFirstWeighing{bad}, Error);
+}
+
+TEST(SubsetFirst, VulkanAgreesWithTheCpu) {
+  const Scene s;
+  const std::unique_ptr<SensorEvaluator> gpu = test::make_vulkan(s.map);
+  ASSERT_TRUE(gpu);
+  CpuEvaluator cpu(s.map, 2);
+  s.place(*gpu);
+  s.place(cpu);
+  const EndpointModel model = tempered_model();
+  SubsetFirstWeighing on_gpu(small_sets()), on_cpu(small_sets());
+  const WeightSummary g = on_gpu.weigh(*gpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
+  const WeightSummary c = on_cpu.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
+  // Float rounding may swap particles tied at the cut; elsewhere both chose alike and agree.
+  std::vector<std::uint32_t> both;
+  std::set_intersection(on_gpu.refined().begin(), on_gpu.refined().end(), on_cpu.refined().begin(),
+                        on_cpu.refined().end(), std::back_inserter(both));
+  EXPECT_GE(both.size() + 2, on_cpu.refined().size());
+  std::vector<int> membership(kParticles, 0);
+  for (std::uint32_t i : on_gpu.refined()) membership[i] += 1;
+  for (std::uint32_t i : on_cpu.refined()) membership[i] += 2;
+  const std::vector<float> gw = log_weights(*gpu, kParticles), cw = log_weights(cpu, kParticles);
+  for (std::size_t i = 0; i < kParticles; ++i) {
+    if (membership[i] == 1 || membership[i] == 2) continue;
+    ASSERT_NEAR(gw[i], cw[i], 1e-4f * std::abs(cw[i]) + 1e-5f) << "particle " << i;
+  }
+  EXPECT_NEAR(g.max_log_weight, c.max_log_weight, 1e-4 * std::abs(c.max_log_weight) + 1e-5);
+  EXPECT_NEAR(g.weight_sum, c.weight_sum, 1e-3 * c.weight_sum);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl

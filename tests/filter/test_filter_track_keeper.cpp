@@ -1,0 +1,173 @@
+// Unknown is unknown, and a jump needs proof: map evidence per scan point (RayFit), paired evidence between two
+// poses on the points both observe, the TrackKeeper's decisions, the TrackState names.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "filter_test_scene.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
+#include "tsdf_mcl/filter/track_keeper.hpp"
+#include "tsdf_mcl/filter/track_state.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+using test::Box;
+
+Box box(float x0, float y0, float z0, float x1, float y1, float z1) {
+  return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
+}
+
+// Two rooms side by side (x 0..6 and 6.2..12, a door in the wall between at y 2..3), a thick solid block in the
+// west room. The map holds the west room only: the east room is space the mapping run never observed.
+std::vector<Box> two_rooms() {
+  return {box(-0.2f, -0.2f, -0.2f, 12.2f, 6.2f, 0.0f), box(-0.2f, -0.2f, 2.6f, 12.2f, 6.2f, 2.8f),
+          box(-0.2f, -0.2f, 0.0f, 0.0f, 6.2f, 2.6f),   box(12.0f, -0.2f, 0.0f, 12.2f, 6.2f, 2.6f),
+          box(-0.2f, -0.2f, 0.0f, 12.2f, 0.0f, 2.6f),  box(-0.2f, 6.0f, 0.0f, 12.2f, 6.2f, 2.6f),
+          box(6.0f, 0.0f, 0.0f, 6.2f, 2.0f, 2.6f),     box(6.0f, 3.0f, 0.0f, 6.2f, 6.0f, 2.6f),
+          box(2.0f, 4.0f, 0.0f, 4.0f, 6.0f, 2.6f)};
+}
+TsdfMap west_room_map() {
+  return test::make_box_map(two_rooms(), Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(6.2f, 6.2f, 2.8f));
+}
+
+TEST(MapEvidence, UnobservedOnlyWhereTheMapNeverLooked) {
+  const TsdfMap map = west_room_map();
+  const Pose west = pose_from_xyz_rpy(3.0, 2.0, 1.0, 0.0, 0.0, 0.0);
+  const Pose east = pose_from_xyz_rpy(9.0, 2.5, 1.0, 0.0, 0.0, 0.0);
+  const std::vector<Eigen::Vector3f> points = {
+      Eigen::Vector3f(-3.0f, 0.0f, 0.0f),  // west wall: an inlier
+      Eigen::Vector3f(0.0f, 1.5f, 0.0f),   // 1.5 m in front of the block: observed free space, no inlier
+      Eigen::Vector3f(0.0f, 3.0f, 0.0f),   // 1 m deep inside the block (unknown beyond the band): a miss
+      Eigen::Vector3f(6.0f, 0.5f, 0.0f),   // through the door into the east room: unobserved
+  };
+  std::vector<std::uint8_t> observed;
+  const RayFit fit = ray_fit(map, west, points, 0.2f, 0.4f, &observed);
+  EXPECT_EQ(observed, (std::vector<std::uint8_t>{1, 1, 1, 0}));
+  EXPECT_EQ(fit.observed, 3u);
+  EXPECT_EQ(fit.inliers, 1u);
+  EXPECT_DOUBLE_EQ(fit.coverage(), 0.75);
+  EXPECT_DOUBLE_EQ(fit.inlier_ratio(), 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(fit.absolute_inlier_ratio(), 0.25);
+
+  // A sensor in the unmapped room: nothing it sees there is evidence.
+  const std::vector<Eigen::Vector3f> around = {Eigen::Vector3f(2.9f, 0.0f, 0.0f), Eigen::Vector3f(0.0f, 3.4f, 0.0f),
+                                               Eigen::Vector3f(0.0f, 0.0f, -1.0f)};
+  const RayFit there = ray_fit(map, east, around, 0.2f, 0.4f, &observed);
+  EXPECT_EQ(there.observed, 0u);
+  EXPECT_DOUBLE_EQ(there.coverage(), 0.0);
+  EXPECT_DOUBLE_EQ(there.inlier_ratio(), 0.0);
+}
+
+TEST(PairedEvidence, CountsOnlyPointsObservedUnderBothPoses) {
+  const std::vector<double> a = {-1.0, -1.0, -5.0, -9.0, 0.0};
+  const std::vector<double> b = {-2.0, -1.0, -1.0, 0.0, -9.0};
+  const std::vector<std::uint8_t> oa = {1, 1, 1, 0, 1};
+  const std::vector<std::uint8_t> ob = {1, 1, 1, 1, 0};
+  const PairedEvidence e = paired_evidence(a, oa, b, ob, 0.5);
+  EXPECT_EQ(e.shared, 3u);
+  EXPECT_DOUBLE_EQ(e.sum, 0.5 + 0.0 - 3.5);  // beyond the dead band, the sign kept
+  const PairedEvidence reverse = paired_evidence(b, ob, a, oa, 0.5);
+  EXPECT_DOUBLE_EQ(reverse.sum, -e.sum);
+  EXPECT_EQ(paired_evidence(a, oa, b, ob, 0.5).shared, paired_evidence(a, ob, b, oa, 0.5).shared);
+}
+
+// A pose that pushes scan points out of the map must not win by it: compared on the points both poses observe,
+// the true pose explains them better.
+TEST(PairedEvidence, APoseOffTheMapGainsNothing) {
+  const TsdfMap map = west_room_map();
+  const std::vector<Box> boxes = two_rooms();
+  Rng rng(3);
+  const Pose truth = pose_from_xyz_rpy(4.5, 2.5, 1.0, 0.0, 0.0, 0.3);
+  const std::vector<Eigen::Vector3f> points = test::simulate_scan(boxes, truth, rng, 16, 90);
+  Pose off = truth;
+  off.translation().x() += 4.0;  // most of the room's points now land in the unobserved east room
+  EndpointModel model;
+  model.unknown_distance = map.truncation();
+  std::vector<double> log_truth, log_off;
+  std::vector<std::uint8_t> obs_truth, obs_off;
+  const auto log_likelihoods = [&](const Pose& p, std::vector<double>& out) {
+    point_log_likelihoods(map, model, p.translation().cast<float>(),
+                          Eigen::Quaternionf(Eigen::Quaterniond(p.linear()).cast<float>()), points, out);
+  };
+  log_likelihoods(truth, log_truth);
+  log_likelihoods(off, log_off);
+  const RayFit fit_truth = ray_fit(map, truth, points, 0.2f, 0.4f, &obs_truth);
+  const RayFit fit_off = ray_fit(map, off, points, 0.2f, 0.4f, &obs_off);
+  EXPECT_GT(fit_truth.coverage(), 0.9);
+  EXPECT_LT(fit_off.coverage(), 0.6);
+  const PairedEvidence e = paired_evidence(log_off, obs_off, log_truth, obs_truth, 0.0);
+  EXPECT_GT(e.shared, 0u);
+  EXPECT_LT(e.sum, 0.0) << "the off-map pose explains the shared points worse";
+}
+
+TEST(TrackKeeper, AJumpNeedsEvidenceOverTravel) {
+  TrackKeeperOptions o;
+  o.proof_travel_m = 1.5;
+  o.proof_nats = 3.0;
+  TrackKeeper k(o);
+  const Pose step = pose_from_xyz_rpy(0.5, 0.0, 0.0, 0.0, 0.0, 0.0);
+  const Pose far = pose_from_xyz_rpy(10.0, 5.0, 0.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(k.update(step, Pose::Identity(), false, far, 10.0, false), TrackKeeper::Decision::kNone);
+  k.start(Pose::Identity());
+  EXPECT_EQ(k.update(step, k.predict(step), true, k.predict(step), 0.0, false), TrackKeeper::Decision::kFollow);
+  EXPECT_NEAR(k.pose().translation().x(), 0.5, 1e-12);
+  // A challenger far away with strong evidence per scan: held until 1.5 m of travel have passed.
+  std::size_t updates = 0;
+  TrackKeeper::Decision d = TrackKeeper::Decision::kHold;
+  while (d == TrackKeeper::Decision::kHold && updates < 20) {
+    const Pose continuation = k.predict(step);
+    d = k.update(step, continuation, false, far, 2.0, false);
+    ++updates;
+    if (d == TrackKeeper::Decision::kHold) {
+      EXPECT_NEAR((k.pose().translation() - continuation.translation()).norm(), 0.0, 1e-12) << "follows the track";
+      EXPECT_TRUE(k.challenged());
+    }
+  }
+  EXPECT_EQ(d, TrackKeeper::Decision::kAccept);
+  EXPECT_EQ(updates, 4u) << "travel counts from the update the challenge began: 3 x 0.5 m";
+  EXPECT_NEAR(k.pose().translation().x(), 10.0, 1e-12);
+  EXPECT_FALSE(k.challenged());
+}
+
+TEST(TrackKeeper, WeakEvidenceHoldsStrongCounterEvidenceRestoresAFailedTrackYields) {
+  TrackKeeperOptions o;
+  TrackKeeper k(o);
+  const Pose step = pose_from_xyz_rpy(0.5, 0.0, 0.0, 0.0, 0.0, 0.0);
+  const Pose far = pose_from_xyz_rpy(10.0, 5.0, 0.0, 0.0, 0.0, 0.0);
+  k.start(Pose::Identity());
+  for (int i = 0; i < 10; ++i) {  // 5 m of travel, a challenger that never proves better than by 0.2 nats a scan
+    ASSERT_EQ(k.update(step, k.predict(step), false, far, 0.2 * (i % 2 ? 1.0 : -1.0), false),
+              TrackKeeper::Decision::kHold);
+  }
+  EXPECT_EQ(k.update(step, k.predict(step), false, far, -2.0, false), TrackKeeper::Decision::kHold);
+  EXPECT_EQ(k.update(step, k.predict(step), false, far, -2.0, false), TrackKeeper::Decision::kRestore);
+  EXPECT_FALSE(k.challenged());
+  // A track that fails where the map covers the scan (a kidnapping): the challenger wins after two updates,
+  // whatever the travel.
+  EXPECT_EQ(k.update(Pose::Identity(), k.pose(), false, far, 0.0, true), TrackKeeper::Decision::kHold);
+  EXPECT_EQ(k.update(Pose::Identity(), k.pose(), false, far, 0.0, true), TrackKeeper::Decision::kAccept);
+  // Off: every jump at once.
+  o.proof_travel_m = 0.0;
+  TrackKeeper off(o);
+  off.start(Pose::Identity());
+  EXPECT_EQ(off.update(step, off.predict(step), false, far, -5.0, false), TrackKeeper::Decision::kAccept);
+  o.proof_nats = 0.0;
+  EXPECT_THROW(o.validate(), Error);
+}
+
+TEST(TrackState, NamesRoundTrip) {
+  for (std::size_t s = 0; s < kTrackStates; ++s) {
+    const auto state = static_cast<TrackState>(s);
+    EXPECT_EQ(parse_track_state(to_string(state)), state);
+  }
+  EXPECT_EQ(std::string(to_string(TrackState::kUnmapped)), "unmapped");
+  EXPECT_FALSE(parse_track_state("Lost").has_value());
+}
+
+}  // namespace
+}  // namespace tsdf_mcl
