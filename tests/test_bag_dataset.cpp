@@ -200,16 +200,18 @@ double scan_time(int k) { return 0.925 + 0.05 * k; }
 struct RobotBag {
   TempDir dir;
   std::filesystem::path file;
-  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true) {
+  // `statics_at`: when /tf_static is recorded and stamped (a recording started after the static publisher holds
+  // the latched message at the time it subscribed, after the first scans).
+  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true, double statics_at = 0.5) {
     file = dir / "robot.bag";
     rosbag::Bag bag(file.string(), rosbag::bagmode::Write);
-    tf2_msgs::TFMessage statics = tf_of("base_footprint", "base_link", 0.5, kFootprintToBase);
+    tf2_msgs::TFMessage statics = tf_of("base_footprint", "base_link", statics_at, kFootprintToBase);
     if (extrinsic) {
-      statics.transforms.push_back(tf_of("base_link", "os_sensor", 0.5, kBaseToSensor).transforms[0]);
-      statics.transforms.push_back(tf_of("os_sensor", "os_lidar", 0.5, kSensorToLidar).transforms[0]);
+      statics.transforms.push_back(tf_of("base_link", "os_sensor", statics_at, kBaseToSensor).transforms[0]);
+      statics.transforms.push_back(tf_of("os_sensor", "os_lidar", statics_at, kSensorToLidar).transforms[0]);
     }
-    statics.transforms.push_back(tf_of("os_lidar", "imu_link", 0.5, kLidarToImu).transforms[0]);
-    bag.write("/tf_static", ros::Time(0.5), statics);
+    statics.transforms.push_back(tf_of("os_lidar", "imu_link", statics_at, kLidarToImu).transforms[0]);
+    bag.write("/tf_static", ros::Time(statics_at), statics);
     for (int k = 0; k <= 40; ++k) {
       const double t = 1.0 + 0.1 * k;
       bag.write("/tf", ros::Time(t), tf_of("odom", "base_footprint", t, odom_T_footprint(t)));
@@ -308,6 +310,19 @@ TEST(BagDataset, TfInterpolationAndExtrinsicComposition) {
   ASSERT_EQ(imu.size(), 200u);
   EXPECT_LT((imu[0].acceleration - Eigen::Vector3d(0.1, 0.3, 9.8)).norm(), 1e-9) << imu[0].acceleration.transpose();
   ASSERT_TRUE(imu_up_at(imu, ds.time(0)).has_value());
+}
+
+TEST(BagDataset, LatchedStaticTransformsRecordedMidStreamHoldFromTheStart) {
+  // /tf_static recorded (and stamped) at 3.0 s, after the last scan: it still places every scan.
+  const RobotBag late(30, false, true, 3.0);
+  const Dataset ds = Dataset::open_bag(late.file, robot_options());
+  const Dataset reference = Dataset::open_bag(robot_bag().file, robot_options());
+  ASSERT_EQ(ds.size(), reference.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    expect_near(ds.odometry(i), reference.odometry(i));
+    expect_near(ds.pose(i), reference.pose(i));
+  }
+  EXPECT_EQ(ds.imu().size(), reference.imu().size());
 }
 
 TEST(BagDataset, OdometryFromATopic) {
