@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "tsdf_mcl/error.hpp"
+#include "tsdf_mcl/one_line.hpp"
 
 namespace {
 
@@ -46,18 +47,18 @@ int main(int argc, char** argv) {
     try {
       return c.run(argc, argv);
     } catch (const tsdf_mcl::Error& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, e.what());
+      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
       return 1;
     } catch (const std::bad_alloc&) {
       // Inputs are bounded by the documented limits (README "Limits"); within them the machine may still run out.
       std::fprintf(stderr, "tsdf-mcl %s: error: out of memory (see the limits in README.md)\n", c.name);
       return 1;
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, e.what());
+      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
       return 3;
     }
   }
-  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'\n", argv[1]);
+  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'\n", tsdf_mcl::one_line(argv[1]).c_str());
   print_usage(stderr);
   return 2;
 }
