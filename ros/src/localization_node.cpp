@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -474,9 +475,20 @@ void LocalizationNode::apply_requests(const ros::Time& stamp) {
 
 std::optional<Pose> LocalizationNode::lookup(const std::string& target, const std::string& source,
                                              const ros::Time& stamp, std::string* error) {
+  // Waits up to tf_timeout of wall time for the transform, polling: tf2's own wait runs on ROS time, which stands
+  // still when a bag ends and, when it jumps back, waits until it is reached again (for ever, after the last
+  // play). A time jump ends the wait.
+  const tf2::BufferCore& core = tf_buffer_;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(settings_.tf_timeout);
+  while (!core.canTransform(target, source, stamp, nullptr) && std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (time_jump_pending_) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
   try {
-    const geometry_msgs::TransformStamped t =
-        tf_buffer_.lookupTransform(target, source, stamp, ros::Duration(settings_.tf_timeout));
+    const geometry_msgs::TransformStamped t = core.lookupTransform(target, source, stamp);
     return pose_from_msg(t.transform);
   } catch (const tf2::TransformException& e) {
     if (error) *error = one_line(e.what());

@@ -151,6 +151,7 @@ double angle_deg(const Pose& a, const Pose& b) {
 struct Outcome {
   std::size_t scans = 0, converged = 0, false_claims = 0;
   std::optional<double> converged_after_s;
+  std::size_t converged_after_scans = 0;  // processed scans before the first converged one: load does not change it
   double rmse_m = 0.0, median_update_ms = 0.0, scan_period_ms = 0.0;
   std::string first_state;
   Scan first;
@@ -166,11 +167,15 @@ Outcome summarize(const std::vector<std::pair<Scan, Pose>>& scans) {
   o.first_truth = scans.front().second;
   double sq = 0.0;
   std::vector<double> update_ms;
-  for (const auto& [scan, truth] : scans) {
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    const auto& [scan, truth] = scans[k];
     if (scan.state != "converged") continue;
     const double err = (scan.pose.translation() - truth.translation()).norm();
     if (err > 1.0 || angle_deg(scan.pose, truth) > 10.0) ++o.false_claims;
-    if (!o.converged_after_s) o.converged_after_s = (scan.stamp - scans.front().first.stamp).toSec();
+    if (!o.converged_after_s) {
+      o.converged_after_s = (scan.stamp - scans.front().first.stamp).toSec();
+      o.converged_after_scans = k;
+    }
     ++o.converged;
     sq += err * err;
     update_ms.push_back(scan.update_ms);
@@ -186,10 +191,10 @@ Outcome summarize(const std::vector<std::pair<Scan, Pose>>& scans) {
 
 void print(const char* what, const Outcome& o) {
   std::printf(
-      "%s: %zu scans processed, converged after %.1f s, %zu flagged converged (%zu false), ATE %.3f m, "
+      "%s: %zu scans processed, converged after %.1f s (%zu scans), %zu flagged converged (%zu false), ATE %.3f m, "
       "median update %.1f ms for a %.0f ms scan period\n",
-      what, o.scans, o.converged_after_s.value_or(-1.0), o.converged, o.false_claims, o.rmse_m, o.median_update_ms,
-      o.scan_period_ms);
+      what, o.scans, o.converged_after_s.value_or(-1.0), o.converged_after_scans, o.converged, o.false_claims, o.rmse_m,
+      o.median_update_ms, o.scan_period_ms);
 }
 
 TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
@@ -239,7 +244,8 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     print("node, global", o);
     ASSERT_GT(o.scans, 20u);
     ASSERT_TRUE(o.converged_after_s) << "never converged";
-    EXPECT_LT(*o.converged_after_s, 15.0);
+    // Counted in processed scans, not seconds: on a loaded machine the global search skips more of the bag's scans.
+    EXPECT_LT(o.converged_after_scans, 60u);
     EXPECT_EQ(o.false_claims, 0u);
     EXPECT_LT(o.rmse_m, 0.10);
     // The update time against the scan period is printed above, not asserted: speed is measured in bench/.
@@ -312,7 +318,7 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     EXPECT_NEAR(o.first.pose.translation().z(), o.first_truth.translation().z(), 0.15);
     EXPECT_LT(angle_deg(o.first.pose, o.first_truth), 8.0);
     ASSERT_TRUE(o.converged_after_s);
-    EXPECT_LT(*o.converged_after_s, 5.0);
+    EXPECT_LT(o.converged_after_scans, 60u);
     EXPECT_EQ(o.false_claims, 0u);
   }
   node.stop();
