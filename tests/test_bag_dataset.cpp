@@ -202,12 +202,13 @@ struct RobotBag {
   std::filesystem::path file;
   // `statics_at`: when /tf_static is recorded and stamped (a recording started after the static publisher holds
   // the latched message at the time it subscribed, after the first scans).
-  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true, double statics_at = 0.5) {
+  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true, double statics_at = 0.5,
+           const Pose& base_to_sensor = kBaseToSensor) {
     file = dir / "robot.bag";
     rosbag::Bag bag(file.string(), rosbag::bagmode::Write);
     tf2_msgs::TFMessage statics = tf_of("base_footprint", "base_link", statics_at, kFootprintToBase);
     if (extrinsic) {
-      statics.transforms.push_back(tf_of("base_link", "os_sensor", statics_at, kBaseToSensor).transforms[0]);
+      statics.transforms.push_back(tf_of("base_link", "os_sensor", statics_at, base_to_sensor).transforms[0]);
       statics.transforms.push_back(tf_of("os_sensor", "os_lidar", statics_at, kSensorToLidar).transforms[0]);
     }
     statics.transforms.push_back(tf_of("os_lidar", "imu_link", statics_at, kLidarToImu).transforms[0]);
@@ -381,6 +382,14 @@ TEST(BagDataset, ClearErrors) {
   const RobotBag no_static(10, false, /*extrinsic=*/false);
   const std::string missing = open(no_static.file, robot_options());
   EXPECT_NE(missing.find("no tf connects 'base_link' and 'os_lidar'"), std::string::npos) << missing;
+
+  // An extrinsic of 1e300 m gave a trajectory of -nan lines with exit status 0 (localize --bag).
+  const RobotBag absurd(10, false, true, 0.5, pose_from_xyz_rpy(1e300, 0, 0, 0, 0, 0));
+  const std::string far = open(absurd.file, robot_options());
+  EXPECT_NE(far.find("/tf_static message 0: tf 'base_link' -> 'os_sensor': translation (1e+300, 0, 0) m is not "
+                     "finite or beyond 1e+06 m"),
+            std::string::npos)
+      << far;
 
   const RobotBag disordered(10, /*out_of_order=*/true);
   EXPECT_NE(open(disordered.file, robot_options())
