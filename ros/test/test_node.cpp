@@ -78,7 +78,7 @@ class Recorder {
   bool wait_for_last_scan(std::chrono::seconds timeout) {
     std::unique_lock<std::mutex> lock(mutex_);
     const bool done = cv_.wait_for(lock, timeout, [&] {
-      return !truth_.empty() && newest_status_ && (truth_.rbegin()->first - *newest_status_).toSec() <= 1.0;
+      return !truth_.empty() && newest_status_ && std::abs((truth_.rbegin()->first - *newest_status_).toSec()) <= 1.0;
     });
     if (!done) {
       std::printf("no status for the last scan: newest status %.3f s, newest ground truth %.3f s (%zu)\n",
@@ -98,7 +98,7 @@ class Recorder {
       if (s.name != "tsdf_mcl: localization") continue;
       Scan& scan = scans_[m->header.stamp];
       scan.state = s.message;
-      if (!newest_status_ || m->header.stamp > *newest_status_) newest_status_ = m->header.stamp;
+      newest_status_ = m->header.stamp;  // the latest to arrive: a late status of the previous play is no end
       cv_.notify_all();
       for (const auto& kv : s.values) {
         if (kv.key == "update_ms") scan.update_ms = std::stod(kv.value);
