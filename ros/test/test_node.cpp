@@ -302,10 +302,9 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     // The node logs when it has the pose; only then may the bag start.
     ASSERT_TRUE(recorder.wait_for_log("/initialpose received", 60s)) << "see " << dir / "node.log";
     recorder.clear_truth();
-    std::vector<std::string> short_play = play;
-    short_play.insert(short_play.end() - 1, {"-u", "8"});
-    Child player(short_play, dir / "play3.log");
-    ASSERT_EQ(player.wait_for(120s), 0);
+    // The whole bag: on a loaded machine the first updates after the reset take seconds each.
+    Child player(play, dir / "play3.log");
+    ASSERT_EQ(player.wait_for(180s), 0);
     ASSERT_TRUE(recorder.wait_for_last_scan(60s));
     const Outcome o = summarize(recorder.take());
     print("node, after /initialpose", o);
