@@ -1,25 +1,59 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds (Release, warnings as errors) and runs the whole test suite on lavapipe with the
-# Vulkan validation layers on; then runs it again built with clang, ASan and UBSan (any finding fails the run), and
-# every fuzzer for a short, bounded time.
+# The test command, in named steps (a step added later, e.g. an arm64 run, goes into STEPS below).
+#
+#   bash tools/test.sh          install what is missing, check the format, build (Release, preset `release`: the
+#                               build the demo made is reused) and run the whole suite, ROS node included, on
+#                               lavapipe with the Vulkan validation layers on.
+#   bash tools/test.sh --full   CI (.ci/run): the suite built with warnings as errors (preset `ci`), then built
+#                               with clang, ASan and UBSan (any finding fails the run), and every fuzzer for a short,
+#                               bounded time (TSDF_MCL_FUZZ_SECONDS, default 20).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash tools/setup.sh
-bash tools/format.sh --check
-cmake --preset ci >/dev/null
-cmake --build --preset ci -j "$(nproc)"
-ctest --preset ci -j "$(nproc)" --timeout 900
 
-cmake --preset asan >/dev/null
-cmake --build --preset asan -j "$(nproc)"
-# The end-to-end localization runs (EndToEnd.*, RealData.*, the ROS node's RosNode.*) take 9 to more than 15 minutes
-# each under the sanitizers; their code paths are covered by the smaller filter tests, and they run in the build above.
-asan_skip='^(EndToEnd|RealData|RosNode)\.'
-# Leaks are reported at exit, after the Vulkan loader unloaded the validation layer; keeping libraries mapped lets
-# tools/lsan.supp name it.
-cc -O2 -shared -fPIC -o build/asan/keep_libraries_loaded.so tools/keep_libraries_loaded.c
-# allocator_may_return_null: libhdf5 handles a failed malloc of a size read from a corrupt file (fuzz/regressions).
-LD_PRELOAD="$PWD/build/asan/keep_libraries_loaded.so" ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 \
-  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 LSAN_OPTIONS=suppressions="$PWD/tools/lsan.supp" \
-  ctest --preset asan -j "$(nproc)" --timeout 900 -E "$asan_skip"
-bash tools/fuzz.sh "${TSDF_MCL_FUZZ_SECONDS:-20}"
+full=0
+case "${1:-}" in
+  "") ;;
+  --full) full=1 ;;
+  *) echo "test.sh: unknown option $1 (bash tools/test.sh [--full])" >&2; exit 2 ;;
+esac
+jobs="$(nproc)"
+preset=release
+[ "$full" = 1 ] && preset=ci
+
+step() { printf '\n==> test.sh: %s (%s)\n' "$1" "$(date -u +%H:%M:%S)" >&2; }
+
+step_setup() { bash tools/setup.sh; }
+step_format() { bash tools/format.sh --check; }
+step_build() {
+  cmake --preset "$preset" >/dev/null
+  cmake --build --preset "$preset" -j "$jobs"
+}
+step_suite() { ctest --preset "$preset" -j "$jobs" --timeout 900; }
+step_asan() {
+  cmake --preset asan >/dev/null
+  cmake --build --preset asan -j "$jobs"
+  # The end-to-end localization runs (EndToEnd.*, RealData.*, the ROS node's RosNode.*) take 9 to more than 15
+  # minutes each under the sanitizers; their code paths are covered by the smaller filter tests, and they run in the
+  # suite above.
+  local asan_skip='^(EndToEnd|RealData|RosNode)\.'
+  # Leaks are reported at exit, after the Vulkan loader unloaded the validation layer; keeping libraries mapped lets
+  # tools/lsan.supp name it.
+  cc -O2 -shared -fPIC -o build/asan/keep_libraries_loaded.so tools/keep_libraries_loaded.c
+  # allocator_may_return_null: libhdf5 handles a failed malloc of a size read from a corrupt file (fuzz/regressions).
+  LD_PRELOAD="$PWD/build/asan/keep_libraries_loaded.so" ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 \
+    UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 LSAN_OPTIONS=suppressions="$PWD/tools/lsan.supp" \
+    ctest --preset asan -j "$jobs" --timeout 900 -E "$asan_skip"
+}
+step_fuzz() { bash tools/fuzz.sh "${TSDF_MCL_FUZZ_SECONDS:-20}"; }
+
+STEPS=(setup format build suite)
+[ "$full" = 1 ] && STEPS+=(asan fuzz)
+
+start=$SECONDS
+for s in "${STEPS[@]}"; do
+  step "$s"
+  t0=$SECONDS
+  "step_$s"
+  printf '==> test.sh: %s done in %d s\n' "$s" $((SECONDS - t0)) >&2
+done
+printf '\n==> test.sh: all steps passed in %d s (%s)\n' $((SECONDS - start)) "${STEPS[*]}" >&2

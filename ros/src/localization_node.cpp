@@ -8,25 +8,57 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/exceptions.h>
+#include <boost/function.hpp>
 
 #include "ros_conversions.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/localizer/localizer_parameters.hpp"
-#include "tsdf_mcl/map/map_io.hpp"
-#include "tsdf_mcl/localizer/planar_pose.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/io/transform_tree.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
+#include "tsdf_mcl/localizer/planar_pose.hpp"
+#include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {
 
 constexpr double kOdometryKeepSeconds = 10.0;
 constexpr double kImuKeepSeconds = 2.0;
+// Time going back by more than this is a jump (a bag played again, a restarted simulator), not message latency;
+// below tf2's 10 s cache, which would otherwise drop the new transforms as old data.
+constexpr double kTimeJumpSeconds = 3.0;
+// A coordinate beyond this (m) is corrupt: no map spans 1000 km, and float points lose all precision there.
+constexpr double kMaxCoordinate = 1e6;
+// ros::Duration holds +-2^31 s: stamps below 2^31 s keep every difference representable (tf2 and ros::Duration abort
+// on larger ones).
+constexpr std::uint32_t kMaxStampSeconds = 2147483647u;
+
+std::string stamp_problem(const ros::Time& t) {
+  if (t.sec < kMaxStampSeconds) return "";
+  return "stamp " + std::to_string(t.sec) + " s is beyond 2^31 s (year 2038), where ROS time differences overflow";
+}
+
+// Why a pose (position, quaternion) cannot be used, or "".
+std::string pose_problem(double x, double y, double z, const geometry_msgs::Quaternion& q) {
+  char buf[160];
+  if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+      !std::isfinite(q.z) || !std::isfinite(q.w)) {
+    std::snprintf(buf, sizeof(buf), "non-finite pose (%g, %g, %g; quaternion %g, %g, %g, %g)", x, y, z, q.x, q.y, q.z,
+                  q.w);
+    return buf;
+  }
+  if (std::abs(x) > kMaxCoordinate || std::abs(y) > kMaxCoordinate || std::abs(z) > kMaxCoordinate) {
+    std::snprintf(buf, sizeof(buf), "position (%g, %g, %g) m beyond %g m", x, y, z, kMaxCoordinate);
+    return buf;
+  }
+  return "";
+}
 
 std::string to_text(const XmlRpc::XmlRpcValue& v) {
   switch (v.getType()) {
@@ -50,6 +82,36 @@ std::string to_text(const XmlRpc::XmlRpcValue& v) {
     default:
       throw Error("parameter of a type the node cannot read (struct, binary or date)");
   }
+}
+
+// A number parameter within [min, max]; `integral` ones must be whole. Absent: `value`. Anything else (text, NaN,
+// out of range) is an Error naming the parameter and the range, never a silent default.
+double number_param(const ros::NodeHandle& pnh, const std::string& name, double value, double min, double max,
+                    bool integral) {
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(name, v)) return value;
+  char range[96];
+  std::snprintf(range, sizeof(range), "%s in %g..%g", integral ? "a whole number" : "a number", min, max);
+  double x = 0.0;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    x = static_cast<int>(v);
+  } else if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    x = static_cast<double>(v);
+  } else {
+    std::string text;
+    try {
+      text = to_text(v);
+    } catch (const Error&) {
+      text = "(not a number)";
+    }
+    throw Error("~" + name + " must be " + range + ", got '" + one_line(text) + "'");
+  }
+  if (!(x >= min && x <= max) || (integral && x != std::floor(x))) {
+    char got[64];
+    std::snprintf(got, sizeof(got), "%.17g", x);
+    throw Error("~" + name + " must be " + range + ", got " + got);
+  }
+  return x;
 }
 
 // A schema name as a key of the private namespace: "initial_pose.x" is ~initial_pose/x.
@@ -106,18 +168,13 @@ NodeSettings settings_from(const ros::NodeHandle& pnh) {
   }
   pnh.param("odom_topic", s.odom_topic, s.odom_topic);
   pnh.param("imu_topic", s.imu_topic, s.imu_topic);
-  pnh.param("transform_tolerance", s.transform_tolerance, s.transform_tolerance);
-  pnh.param("tf_timeout", s.tf_timeout, s.tf_timeout);
-  pnh.param("merge_window", s.merge_window, s.merge_window);
+  s.transform_tolerance = number_param(pnh, "transform_tolerance", s.transform_tolerance, 0.0, 60.0, false);
+  s.tf_timeout = number_param(pnh, "tf_timeout", s.tf_timeout, 0.0, 10.0, false);
+  s.merge_window = number_param(pnh, "merge_window", s.merge_window, 0.0, 10.0, false);
   pnh.param("tf_broadcast", s.tf_broadcast, s.tf_broadcast);
-  pnh.param("max_published_particles", s.max_published_particles, s.max_published_particles);
-  pnh.param("map_cloud_points", s.map_cloud_points, s.map_cloud_points);
-  if (!(s.transform_tolerance >= 0.0) || !(s.tf_timeout >= 0.0) || !(s.merge_window >= 0.0)) {
-    throw Error("~transform_tolerance, ~tf_timeout and ~merge_window must not be negative");
-  }
-  if (s.max_published_particles < 0 || s.map_cloud_points < 0) {
-    throw Error("~max_published_particles and ~map_cloud_points must not be negative");
-  }
+  s.max_published_particles =
+      static_cast<int>(number_param(pnh, "max_published_particles", s.max_published_particles, 0, 1e7, true));
+  s.map_cloud_points = static_cast<int>(number_param(pnh, "map_cloud_points", s.map_cloud_points, 0, 1e8, true));
   return s;
 }
 
@@ -148,13 +205,12 @@ double yaw_of(const Pose& p) {
 
 }  // namespace
 
-LocalizationNode::LocalizationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_) {
+LocalizationNode::LocalizationNode(ros::NodeHandle nh, ros::NodeHandle private_nh) : nh_(nh), private_nh_(private_nh) {
   settings_ = settings_from(private_nh_);
   warn_unknown_parameters(private_nh_);
-  const LocalizerOptions options = localizer_options_of(private_nh_);
+  options_ = localizer_options_of(private_nh_);
   map_ = load_map(settings_.map_file);
-  localizer_ = std::make_unique<Localizer>(map_, options);
+  localizer_ = std::make_unique<Localizer>(map_, options_);
   ROS_INFO("tsdf_mcl: map %s, %s", settings_.map_file.c_str(), localizer_->backend_note().c_str());
 
   pose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("amcl_pose", 2, true);
@@ -168,6 +224,19 @@ LocalizationNode::LocalizationNode(ros::NodeHandle nh, ros::NodeHandle private_n
   surface.header.frame_id = settings_.global_frame_id;
   surface.header.stamp = ros::Time::now();
   map_cloud_pub_.publish(surface);
+
+  // tf on a queue and thread of its own, as tf2_ros::TransformListener does (on_imu waits for tf on the main
+  // one), but through on_tf, which keeps bad stamps and poses away from tf2 and sees time going back.
+  tf_buffer_.setUsingDedicatedThread(true);  // lookups may wait for tf: its thread fills the buffer meanwhile
+  ros::NodeHandle tf_nh;
+  tf_nh.setCallbackQueue(&tf_queue_);
+  for (const bool is_static : {false, true}) {
+    const boost::function<void(const ros::MessageEvent<tf2_msgs::TFMessage const>&)> callback =
+        [this, is_static](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { on_tf(e, is_static); };
+    tf_subscribers_.push_back(tf_nh.subscribe<tf2_msgs::TFMessage>(is_static ? "/tf_static" : "/tf", 100, callback));
+  }
+  tf_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &tf_queue_);
+  tf_spinner_->start();
 
   latest_.resize(settings_.point_topics.size());
   for (std::size_t i = 0; i < settings_.point_topics.size(); ++i) {
@@ -185,9 +254,84 @@ LocalizationNode::LocalizationNode(ros::NodeHandle nh, ros::NodeHandle private_n
   services_.push_back(nh_.advertiseService("request_nomotion_update", &LocalizationNode::on_nomotion_update, this));
 }
 
+LocalizationNode::~LocalizationNode() {
+  if (tf_spinner_) tf_spinner_->stop();
+}
+
+void LocalizationNode::on_tf(const ros::MessageEvent<tf2_msgs::TFMessage const>& event, bool is_static) {
+  const std::string authority = event.getPublisherName();
+  std::lock_guard<std::mutex> lock(mutex_);
+  note_time_locked(nullptr);  // before the transforms go in: a jump clears the buffer
+  for (const geometry_msgs::TransformStamped& t : event.getMessage()->transforms) {
+    const geometry_msgs::Vector3& v = t.transform.translation;
+    std::string problem = stamp_problem(t.header.stamp);
+    if (problem.empty()) problem = pose_problem(v.x, v.y, v.z, t.transform.rotation);
+    if (!problem.empty()) {
+      reject_locked(std::string(is_static ? "/tf_static " : "/tf ") + t.header.frame_id + " -> " + t.child_frame_id +
+                    ": " + problem);
+      continue;
+    }
+    if (is_static) statics_[t.child_frame_id] = t;
+    tf_buffer_.setTransform(t, authority, is_static);
+  }
+}
+
+void LocalizationNode::reject_locked(const std::string& why) {
+  ++rejected_;
+  last_rejection_ = one_line(why);
+  // Every one of the first few, then at most one line per 5 s: a stream of bad messages does not flood the log.
+  if (rejected_ <= 10)
+    ROS_WARN("tsdf_mcl: message rejected (%zu so far): %s", rejected_, last_rejection_.c_str());
+  else
+    ROS_WARN_THROTTLE(5.0, "tsdf_mcl: message rejected (%zu so far): %s", rejected_, last_rejection_.c_str());
+}
+
+bool LocalizationNode::note_time_locked(const ros::Time* scan_stamp) {
+  // Two signs: the clock going back (ROS time from /clock, as tf2_ros's listener checks it), or, without sim time,
+  // the scans' stamps going back. Other messages' stamps are no sign: tf may be late (the node's own map -> odom
+  // carries the stamp of a scan that took seconds).
+  const ros::Time now = ros::Time::now();
+  char why[160] = "";
+  if (last_now_ && !now.isZero() && now < *last_now_) {
+    std::snprintf(why, sizeof(why), "the clock went back from %.3f to %.3f s", last_now_->toSec(), now.toSec());
+  } else if (scan_stamp && newest_ && (*newest_ - *scan_stamp).toSec() > kTimeJumpSeconds) {
+    std::snprintf(why, sizeof(why), "scan stamps went back from %.3f to %.3f s", newest_->toSec(), scan_stamp->toSec());
+  }
+  if (!now.isZero()) last_now_ = now;
+  if (why[0]) newest_.reset();
+  if (scan_stamp && (!newest_ || *scan_stamp > *newest_)) newest_ = *scan_stamp;
+  if (!why[0]) return false;
+  ROS_WARN(
+      "tsdf_mcl: %s (a bag played again or a restarted simulator): tf buffer cleared (static transforms kept), "
+      "the filter restarts with a global search",
+      why);
+  tf_buffer_.clear();
+  for (const auto& [child, t] : statics_) tf_buffer_.setTransform(t, "tsdf_mcl (kept across a time jump)", true);
+  odometry_.clear();
+  imu_.clear();
+  last_imu_time_.reset();
+  time_jump_pending_ = true;
+  ++time_jumps_;
+  return true;
+}
+
+void LocalizationNode::restart_after_time_jump() {
+  // A new Localizer: its particles, motion reference and IMU history all belong to the time before the jump.
+  localizer_ = std::make_unique<Localizer>(map_, options_);
+  last_stamp_.reset();
+  scan_period_ = 0.0;
+  last_sensor_scan_.clear();
+  estimate_valid_ = false;
+}
+
 void LocalizationNode::on_cloud(std::size_t topic, const sensor_msgs::PointCloud2ConstPtr& msg) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (const std::string p = stamp_problem(msg->header.stamp); !p.empty()) {
+      reject_locked("PointCloud2 on " + settings_.point_topics[topic] + ": " + p);
+      return;
+    }
+    note_time_locked(topic == 0 ? &msg->header.stamp : nullptr);
     if (topic == 0 && latest_[0].fresh) ++skipped_;  // the filter is still busy with an older scan
     latest_[topic] = {msg, true};
   }
@@ -196,20 +340,54 @@ void LocalizationNode::on_cloud(std::size_t topic, const sensor_msgs::PointCloud
 
 void LocalizationNode::on_odometry(const nav_msgs::OdometryConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const geometry_msgs::Point& p = msg->pose.pose.position;
+  std::string problem = stamp_problem(msg->header.stamp);
+  if (problem.empty()) problem = pose_problem(p.x, p.y, p.z, msg->pose.pose.orientation);
+  if (!problem.empty()) {
+    reject_locked("odometry on " + settings_.odom_topic + ": " + problem);
+    return;
+  }
+  note_time_locked(nullptr);
+  if (!odometry_.empty() && msg->header.stamp <= odometry_.back().header.stamp) {
+    reject_locked("odometry on " + settings_.odom_topic + " stamped " + std::to_string(msg->header.stamp.toSec()) +
+                  " s, not after the previous message (" + std::to_string(odometry_.back().header.stamp.toSec()) +
+                  " s)");
+    return;
+  }
   odometry_.push_back(*msg);
   while (!odometry_.empty() && (msg->header.stamp - odometry_.front().header.stamp).toSec() > kOdometryKeepSeconds)
     odometry_.pop_front();
 }
 
 void LocalizationNode::on_imu(const sensor_msgs::ImuConstPtr& msg) {
+  const Eigen::Vector3d a(msg->linear_acceleration.x, msg->linear_acceleration.y, msg->linear_acceleration.z);
+  std::string problem = stamp_problem(msg->header.stamp);
+  // Beyond 1000 m/s^2 (100 g) no IMU of a robot reads: corrupt.
+  if (problem.empty() && !(a.allFinite() && a.norm() < 1000.0)) {
+    char buf[120];
+    std::snprintf(buf, sizeof(buf), "linear_acceleration (%g, %g, %g) is not finite or beyond 1000 m/s^2", a.x(), a.y(),
+                  a.z());
+    problem = buf;
+  }
+  if (!problem.empty()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    reject_locked("IMU on " + settings_.imu_topic + ": " + problem);
+    return;
+  }
   // Specific force in the base frame: the IMU's mounting rotation from tf (the filter's sensor is the base).
   std::optional<Pose> base_T_imu = lookup(settings_.base_frame_id, msg->header.frame_id, ros::Time(0));
   if (!base_T_imu) return;
   ImuSample s;
   s.time = msg->header.stamp.toSec();
-  s.acceleration = base_T_imu->rotation() *
-                   Eigen::Vector3d(msg->linear_acceleration.x, msg->linear_acceleration.y, msg->linear_acceleration.z);
+  s.acceleration = base_T_imu->rotation() * a;
   std::lock_guard<std::mutex> lock(mutex_);
+  note_time_locked(nullptr);
+  if (last_imu_time_ && !(s.time > *last_imu_time_)) {
+    reject_locked("IMU on " + settings_.imu_topic + " stamped " + std::to_string(s.time) +
+                  " s, not after the previous sample (" + std::to_string(*last_imu_time_) + " s)");
+    return;
+  }
+  last_imu_time_ = s.time;
   imu_.push_back(s);
   while (!imu_.empty() && s.time - imu_.front().time > kImuKeepSeconds) imu_.pop_front();
 }
@@ -220,7 +398,14 @@ void LocalizationNode::on_initial_pose(const geometry_msgs::PoseWithCovarianceSt
              settings_.global_frame_id.c_str());
     return;
   }
+  const geometry_msgs::Point& p = msg->pose.pose.position;
   std::lock_guard<std::mutex> lock(mutex_);
+  if (const std::string problem = pose_problem(p.x, p.y, p.z, msg->pose.pose.orientation); !problem.empty()) {
+    reject_locked("/initialpose: " + problem);
+    return;
+  }
+  ROS_INFO("tsdf_mcl: /initialpose received (%.2f, %.2f, %.2f): the filter restarts there at the next scan", p.x, p.y,
+           p.z);
   initial_pose_request_ = *msg;
   global_request_ = false;
 }
@@ -277,7 +462,7 @@ void LocalizationNode::apply_requests(const ros::Time& stamp) {
   if (planar) {
     // RViz's "2D Pose Estimate": z, roll and pitch from the map and the last scan.
     const std::optional<double> z_hint =
-        processed_ > 0 ? std::optional<double>(localizer_->estimate().pose.translation().z()) : std::nullopt;
+        estimate_valid_ ? std::optional<double>(localizer_->estimate().pose.translation().z()) : std::nullopt;
     if (const auto full = pose_from_planar(map_, pose.translation().x(), pose.translation().y(), yaw_of(pose),
                                            last_sensor_scan_, last_base_T_sensor_, z_hint)) {
       pose = *full;
@@ -294,22 +479,45 @@ void LocalizationNode::apply_requests(const ros::Time& stamp) {
 }
 
 std::optional<Pose> LocalizationNode::lookup(const std::string& target, const std::string& source,
-                                             const ros::Time& stamp) {
+                                             const ros::Time& stamp, std::string* error) {
+  // Waits up to tf_timeout of wall time for the transform, polling: tf2's own wait runs on ROS time, which stands
+  // still when a bag ends and, when it jumps back, waits until it is reached again (for ever, after the last
+  // play). A time jump ends the wait.
+  const tf2::BufferCore& core = tf_buffer_;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(settings_.tf_timeout);
+  while (!core.canTransform(target, source, stamp, nullptr) && std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (time_jump_pending_) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
   try {
-    const geometry_msgs::TransformStamped t =
-        tf_buffer_.lookupTransform(target, source, stamp, ros::Duration(settings_.tf_timeout));
+    const geometry_msgs::TransformStamped t = core.lookupTransform(target, source, stamp);
     return pose_from_msg(t.transform);
   } catch (const tf2::TransformException& e) {
+    if (error) *error = one_line(e.what());
     ROS_WARN_THROTTLE(5.0, "tsdf_mcl: no transform %s -> %s at %.3f: %s", target.c_str(), source.c_str(), stamp.toSec(),
                       e.what());
     return std::nullopt;
   }
 }
 
-std::optional<Pose> LocalizationNode::odometry_at(const ros::Time& stamp) {
-  if (settings_.odom_topic.empty()) return lookup(settings_.odom_frame_id, settings_.base_frame_id, stamp);
+std::optional<Pose> LocalizationNode::odometry_at(const ros::Time& stamp, std::string* error) {
+  if (settings_.odom_topic.empty()) {
+    std::string why;
+    const std::optional<Pose> pose = lookup(settings_.odom_frame_id, settings_.base_frame_id, stamp, &why);
+    if (!pose) {
+      *error = "no odometry (tf " + settings_.odom_frame_id + " -> " + settings_.base_frame_id +
+               ") at the scan: " + why + "; check that odometry is published on /tf and covers the scans' stamps";
+    }
+    return pose;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (odometry_.empty()) return std::nullopt;
+  if (odometry_.empty()) {
+    *error = "no odometry on " + settings_.odom_topic + " yet (is it published?)";
+    return std::nullopt;
+  }
   for (std::size_t i = 1; i < odometry_.size(); ++i) {
     const nav_msgs::Odometry& a = odometry_[i - 1];
     const nav_msgs::Odometry& b = odometry_[i];
@@ -320,15 +528,30 @@ std::optional<Pose> LocalizationNode::odometry_at(const ros::Time& stamp) {
     }
   }
   const nav_msgs::Odometry& last = odometry_.back();
-  if (std::abs((stamp - last.header.stamp).toSec()) <= settings_.tf_timeout) return pose_from_msg(last.pose.pose);
+  const double behind = (stamp - last.header.stamp).toSec();
+  if (std::abs(behind) <= settings_.tf_timeout) return pose_from_msg(last.pose.pose);
+  char buf[200];
+  std::snprintf(buf, sizeof(buf), "no odometry on %s at the scan (%.3f s): the messages span %.3f..%.3f s%s",
+                settings_.odom_topic.c_str(), stamp.toSec(), odometry_.front().header.stamp.toSec(),
+                last.header.stamp.toSec(), behind > 0 ? " (odometry stalled or late)" : " (scan older than them)");
+  *error = buf;
   return std::nullopt;
 }
 
 bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vector<Eigen::Vector3f>& points,
-                                 bool primary) {
+                                 bool primary, std::string* error) {
   // Extrinsics are rigid: the latest transform serves every stamp.
-  const std::optional<Pose> base_T_cloud = lookup(settings_.base_frame_id, msg.header.frame_id, ros::Time(0));
-  if (!base_T_cloud) return false;
+  std::string why;
+  const std::optional<Pose> base_T_cloud = lookup(settings_.base_frame_id, msg.header.frame_id, ros::Time(0), &why);
+  if (!base_T_cloud) {
+    *error = "no transform " + settings_.base_frame_id + " -> " + msg.header.frame_id +
+             " (the LiDAR's mounting): " + why +
+             ". Publish it latched on /tf_static (robot_state_publisher, or rosrun tf2_ros "
+             "static_transform_publisher X Y Z YAW PITCH ROLL " +
+             settings_.base_frame_id + " " + msg.header.frame_id +
+             "), or check ~base_frame_id and the clouds' header.frame_id; retried with every scan";
+    return false;
+  }
   PointCloud cloud = cloud_from_msg(msg, "PointCloud2 in frame " + msg.header.frame_id);
   const Eigen::Isometry3f t = base_T_cloud->cast<float>();
   for (const Eigen::Vector3f& p : cloud.points) points.push_back(t * p);
@@ -342,29 +565,49 @@ bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vecto
 void LocalizationNode::process(const sensor_msgs::PointCloud2ConstPtr& primary,
                                const std::vector<sensor_msgs::PointCloud2ConstPtr>& others) {
   const ros::Time stamp = primary->header.stamp;
-  std::vector<Eigen::Vector3f>& points = scan_points_;  // reused: no allocation per scan once grown
-  points.clear();
-  try {
-    if (!add_cloud(*primary, points, true)) {
-      ++failed_;
+  bool restart = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::swap(restart, time_jump_pending_);
+    if (!restart && last_stamp_ && stamp <= *last_stamp_) {
+      reject_locked("scan stamped " + std::to_string(stamp.toSec()) + " s, not after the last one (" +
+                    std::to_string(last_stamp_->toSec()) + " s)");
       return;
     }
-    for (const auto& o : others) add_cloud(*o, points, false);
+  }
+  if (restart) restart_after_time_jump();
+  std::vector<Eigen::Vector3f>& points = scan_points_;  // reused: no allocation per scan once grown
+  points.clear();
+  std::string problem;
+  try {
+    if (!add_cloud(*primary, points, true, &problem)) {
+      ++failed_;
+      publish_problem(stamp, problem);
+      return;
+    }
+    for (const auto& o : others) add_cloud(*o, points, false, &problem);
   } catch (const Error& e) {
-    ROS_WARN_THROTTLE(5.0, "tsdf_mcl: scan skipped: %s", e.what());
     ++failed_;
+    publish_problem(stamp, std::string("scan skipped: ") + e.what());
     return;
   }
   // Requests take effect at this scan, after its clouds are read (a planar initial pose is completed from it).
   apply_requests(stamp);
-  const std::optional<Pose> odom_T_base = odometry_at(stamp);
+  const std::optional<Pose> odom_T_base = odometry_at(stamp, &problem);
   if (!odom_T_base && localizer_->options().filter.motion.type == MotionModelType::kOdometry) {
     ++failed_;
+    publish_problem(stamp, problem);  // no pose invented
     return;
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (const ImuSample& s : imu_) localizer_->add_imu(s);
+    for (const ImuSample& s : imu_) {
+      try {
+        localizer_->add_imu(s);
+      } catch (const Error& e) {
+        reject_locked(std::string("IMU sample: ") + e.what());
+      }
+    }
     imu_.clear();
   }
   const auto t0 = std::chrono::steady_clock::now();
@@ -372,10 +615,11 @@ void LocalizationNode::process(const sensor_msgs::PointCloud2ConstPtr& primary,
   try {
     record = &localizer_->process(stamp.toSec(), points, odom_T_base);
   } catch (const Error& e) {
-    ROS_WARN_THROTTLE(5.0, "tsdf_mcl: scan skipped: %s", e.what());
     ++failed_;
+    publish_problem(stamp, std::string("scan skipped: ") + e.what());
     return;
   }
+  estimate_valid_ = true;
   const double update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ++processed_;
   if (last_stamp_ && stamp > *last_stamp_) {
@@ -386,12 +630,13 @@ void LocalizationNode::process(const sensor_msgs::PointCloud2ConstPtr& primary,
   if (scan_period_ > 0.0 && update_ms > 1000.0 * scan_period_) ++late_;
   publish(stamp, *record, odom_T_base.value_or(Pose::Identity()), update_ms);
   if (!odom_T_base) return;
-  if (settings_.tf_broadcast) {
+  const Pose map_T_odom = record->step.estimate.pose * odom_T_base->inverse();
+  if (settings_.tf_broadcast && map_T_odom.matrix().allFinite()) {
     geometry_msgs::TransformStamped t;
     t.header.stamp = stamp + ros::Duration(settings_.transform_tolerance);
     t.header.frame_id = settings_.global_frame_id;
     t.child_frame_id = settings_.odom_frame_id;
-    t.transform = transform_from_pose(record->step.estimate.pose * odom_T_base->inverse());
+    t.transform = transform_from_pose(map_T_odom);
     tf_broadcaster_.sendTransform(t);
   }
 }
@@ -433,6 +678,38 @@ void LocalizationNode::publish(const ros::Time& stamp, const ScanRecord& record,
     particles_pub_.publish(cloud);
   }
   publish_status(stamp, &record, update_ms);
+}
+
+void LocalizationNode::publish_problem(const ros::Time& stamp, const std::string& problem) {
+  ROS_WARN_THROTTLE(5.0, "tsdf_mcl: scan at %.3f not used: %s", stamp.toSec(), problem.c_str());
+  diagnostic_msgs::DiagnosticStatus status;
+  status.name = "tsdf_mcl: localization";
+  status.hardware_id = settings_.base_frame_id;
+  status.level = diagnostic_msgs::DiagnosticStatus::ERROR;
+  status.message = one_line(problem);
+  auto add = [&status](const std::string& key, const std::string& value) {
+    diagnostic_msgs::KeyValue kv;
+    kv.key = key;
+    kv.value = value;
+    status.values.push_back(kv);
+  };
+  add("state", "no scan used");
+  add("problem", status.message);
+  add("processed_scans", std::to_string(processed_));
+  add("failed_scans", std::to_string(failed_));
+  add_rejections(add);
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = stamp;
+  array.status.push_back(status);
+  diagnostics_pub_.publish(array);
+}
+
+template <typename Add>
+void LocalizationNode::add_rejections(const Add& add) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  add("rejected_messages", std::to_string(rejected_));
+  add("last_rejection", last_rejection_);
+  add("time_jumps", std::to_string(time_jumps_));
 }
 
 void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* record, double update_ms) {
@@ -477,6 +754,7 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
   add("skipped_scans", std::to_string(skipped));
   add("late_updates", std::to_string(late_));
   add("failed_scans", std::to_string(failed_));
+  add_rejections(add);
   if (record) {
     add("particles", std::to_string(record->step.particles));
     add("inlier_ratio", std::to_string(record->step.estimate.inlier_ratio));

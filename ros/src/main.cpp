@@ -4,6 +4,8 @@
 #include <exception>
 
 #include "localization_node.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "tsdf_mcl");
@@ -14,7 +16,7 @@ int main(int argc, char** argv) {
     spinner.start();
     node.run();
   } catch (const std::exception& e) {
-    ROS_FATAL("tsdf_mcl: %s", e.what());
+    ROS_FATAL("tsdf_mcl: %s", tsdf_mcl::one_line(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -1,10 +1,12 @@
 // The node as a robot runs it: a ROS master on the loopback address, tsdf_mcl_node, and a bag written by
-// `tsdf-mcl simulate --bag` played into it with `rosbag play --clock`. One test (each ctest test is its own process,
-// and the setup - map, bag, master - is most of the cost).
+// `tsdf-mcl simulate --bag` played into it with `rosbag play --clock` (RosNode.LocalizesABag...); and the node fed
+// hostile messages by the test itself (RosNode.SurvivesHostile..., test_node_hostile.cpp). Every wait is on an event
+// (a connection, a message, a log line) with a generous bound, never a sleep: the tests pass on a loaded machine.
 #include <fcntl.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
+#include <sensor_msgs/Imu.h>
 #include <ros/ros.h>
 #include <signal.h>
 #include <std_srvs/Empty.h>
@@ -14,10 +16,12 @@
 #include <unistd.h>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <rosgraph_msgs/Log.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -28,71 +32,11 @@
 #include <thread>
 #include <vector>
 
+#include "node_test_support.hpp"
 #include "ros_conversions.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {
-
-namespace fs = std::filesystem;
-using namespace std::chrono_literals;
-
-// A child process with its output in a log file; stopped with SIGINT (as roslaunch does), then SIGKILL.
-class Child {
- public:
-  Child(const std::vector<std::string>& args, const fs::path& log) : name_(args.front()) {
-    pid_ = fork();
-    if (pid_ == 0) {
-      const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) {
-        dup2(fd, 1);
-        dup2(fd, 2);
-      }
-      std::vector<char*> argv;
-      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      execvp(argv[0], argv.data());
-      _exit(127);
-    }
-  }
-  ~Child() { stop(); }
-  // Exit status once the child ended within `timeout`, else -1 (still running).
-  int wait_for(std::chrono::seconds timeout) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (pid_ > 0 && std::chrono::steady_clock::now() < end) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      std::this_thread::sleep_for(50ms);
-    }
-    return pid_ > 0 ? -1 : 0;
-  }
-  bool running() {
-    if (pid_ <= 0) return false;
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) == pid_) pid_ = -1;
-    return pid_ > 0;
-  }
-  void stop() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGINT);
-    if (wait_for(10s) < 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    pid_ = -1;
-  }
-
- private:
-  std::string name_;
-  pid_t pid_ = -1;
-};
-
-void run_cli(const std::string& args, const fs::path& log) {
-  const std::string cmd = std::string(TSDF_MCL_CLI) + " " + args + " >>'" + log.string() + "' 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd << " failed; see " << log;
-}
 
 struct Scan {
   ros::Time stamp;
@@ -108,6 +52,40 @@ class Recorder {
     subs_.push_back(nh.subscribe("/amcl_pose", 100, &Recorder::on_pose, this));
     subs_.push_back(nh.subscribe("/diagnostics", 100, &Recorder::on_status, this));
     subs_.push_back(nh.subscribe("/ground_truth", 100, &Recorder::on_truth, this));
+    // Topics of the bag that only the recorder hears, for rosbag play --wait-for-subscribers.
+    subs_.push_back(nh.subscribe("/odom", 100, &Recorder::on_odom, this));
+    subs_.push_back(nh.subscribe("/imu", 100, &Recorder::on_imu, this));
+    subs_.push_back(nh.subscribe("/rosout", 1000, &Recorder::on_log, this));
+  }
+  void on_odom(const nav_msgs::OdometryConstPtr&) {}
+  void on_imu(const sensor_msgs::ImuConstPtr&) {}
+  void on_log(const rosgraph_msgs::LogConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    log_.push_back(m->msg);
+    cv_.notify_all();
+  }
+  // Waits for a log line of the node that contains `text`.
+  bool wait_for_log(const std::string& text, std::chrono::seconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return cv_.wait_for(lock, timeout, [&] {
+      return std::any_of(log_.begin(), log_.end(),
+                         [&](const std::string& l) { return l.find(text) != std::string::npos; });
+    });
+  }
+  // After a bag was played: waits until the node reported on the bag's end (a status stamped within 1 s of the
+  // newest ground truth heard), so take() sees the scans. Not the very last scan: rosbag play exits right after
+  // publishing it, and roscpp drops what is still queued for a subscriber then.
+  bool wait_for_last_scan(std::chrono::seconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const bool done = cv_.wait_for(lock, timeout, [&] {
+      return !truth_.empty() && newest_status_ && std::abs((truth_.rbegin()->first - *newest_status_).toSec()) <= 1.0;
+    });
+    if (!done) {
+      std::printf("no status for the last scan: newest status %.3f s, newest ground truth %.3f s (%zu)\n",
+                  newest_status_ ? newest_status_->toSec() : -1.0,
+                  truth_.empty() ? -1.0 : truth_.rbegin()->first.toSec(), truth_.size());
+    }
+    return done;
   }
   void on_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -120,6 +98,8 @@ class Recorder {
       if (s.name != "tsdf_mcl: localization") continue;
       Scan& scan = scans_[m->header.stamp];
       scan.state = s.message;
+      newest_status_ = m->header.stamp;  // the latest to arrive: a late status of the previous play is no end
+      cv_.notify_all();
       for (const auto& kv : s.values) {
         if (kv.key == "update_ms") scan.update_ms = std::stod(kv.value);
         if (kv.key == "scan_period_ms") scan.scan_period_ms = std::stod(kv.value);
@@ -129,6 +109,7 @@ class Recorder {
   void on_truth(const nav_msgs::OdometryConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     truth_[m->header.stamp] = pose_from_msg(m->pose.pose);
+    cv_.notify_all();
   }
   // Scans with pose, state and ground truth, in time order; clears the record.
   std::vector<std::pair<Scan, Pose>> take() {
@@ -139,6 +120,7 @@ class Recorder {
       if (t != truth_.end() && !scan.state.empty() && scan.stamp == stamp) out.emplace_back(scan, t->second);
     }
     scans_.clear();
+    newest_status_.reset();
     return out;
   }
   std::optional<std::pair<ros::Time, Pose>> first_truth() {
@@ -149,10 +131,14 @@ class Recorder {
   void clear_truth() {
     std::lock_guard<std::mutex> lock(mutex_);
     truth_.clear();
+    newest_status_.reset();
   }
 
  private:
   std::mutex mutex_;
+  std::condition_variable cv_;
+  std::optional<ros::Time> newest_status_;
+  std::vector<std::string> log_;
   std::map<ros::Time, Scan> scans_;
   std::map<ros::Time, Pose> truth_;
   std::vector<ros::Subscriber> subs_;
@@ -165,6 +151,7 @@ double angle_deg(const Pose& a, const Pose& b) {
 struct Outcome {
   std::size_t scans = 0, converged = 0, false_claims = 0;
   std::optional<double> converged_after_s;
+  std::size_t converged_after_scans = 0;  // processed scans before the first converged one: load does not change it
   double rmse_m = 0.0, median_update_ms = 0.0, scan_period_ms = 0.0;
   std::string first_state;
   Scan first;
@@ -180,11 +167,15 @@ Outcome summarize(const std::vector<std::pair<Scan, Pose>>& scans) {
   o.first_truth = scans.front().second;
   double sq = 0.0;
   std::vector<double> update_ms;
-  for (const auto& [scan, truth] : scans) {
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    const auto& [scan, truth] = scans[k];
     if (scan.state != "converged") continue;
     const double err = (scan.pose.translation() - truth.translation()).norm();
     if (err > 1.0 || angle_deg(scan.pose, truth) > 10.0) ++o.false_claims;
-    if (!o.converged_after_s) o.converged_after_s = (scan.stamp - scans.front().first.stamp).toSec();
+    if (!o.converged_after_s) {
+      o.converged_after_s = (scan.stamp - scans.front().first.stamp).toSec();
+      o.converged_after_scans = k;
+    }
     ++o.converged;
     sq += err * err;
     update_ms.push_back(scan.update_ms);
@@ -200,10 +191,10 @@ Outcome summarize(const std::vector<std::pair<Scan, Pose>>& scans) {
 
 void print(const char* what, const Outcome& o) {
   std::printf(
-      "%s: %zu scans processed, converged after %.1f s, %zu flagged converged (%zu false), ATE %.3f m, "
+      "%s: %zu scans processed, converged after %.1f s (%zu scans), %zu flagged converged (%zu false), ATE %.3f m, "
       "median update %.1f ms for a %.0f ms scan period\n",
-      what, o.scans, o.converged_after_s.value_or(-1.0), o.converged, o.false_claims, o.rmse_m, o.median_update_ms,
-      o.scan_period_ms);
+      what, o.scans, o.converged_after_s.value_or(-1.0), o.converged_after_scans, o.converged, o.false_claims, o.rmse_m,
+      o.median_update_ms, o.scan_period_ms);
 }
 
 TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
@@ -220,20 +211,8 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
           log);
   if (HasFatalFailure()) return;
 
-  // A master of our own on the loopback address: nothing else on the machine hears it.
-  const int port = 20000 + static_cast<int>(getpid() % 20000);
-  const std::string master = "http://127.0.0.1:" + std::to_string(port);
-  setenv("ROS_MASTER_URI", master.c_str(), 1);
-  setenv("ROS_HOSTNAME", "127.0.0.1", 1);
-  setenv("ROS_HOME", (dir / "ros").c_str(), 1);
-  setenv("ROS_LOG_DIR", (dir / "ros").c_str(), 1);
-  Child rosmaster({"rosmaster", "--core", "-p", std::to_string(port)}, dir / "rosmaster.log");
-  int argc = 1;
-  char name[] = "tsdf_mcl_test";
-  char* argv[] = {name, nullptr};
-  ros::init(argc, argv, "tsdf_mcl_test", ros::init_options::NoSigintHandler | ros::init_options::AnonymousName);
-  for (int i = 0; i < 200 && !ros::master::check(); ++i) std::this_thread::sleep_for(100ms);
-  ASSERT_TRUE(ros::master::check()) << "rosmaster did not start; see " << dir / "rosmaster.log";
+  Master rosmaster(dir);
+  ASSERT_TRUE(rosmaster.up()) << "rosmaster did not start; see " << dir / "rosmaster.log";
   ros::param::set("/use_sim_time", true);
   ros::start();
   ros::NodeHandle nh;
@@ -249,20 +228,24 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
              dir / "node.log");
   ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
       << "the node did not come up; see " << dir / "node.log";
-  const std::vector<std::string> play = {"rosbag", "play", "--clock", "-q", (dir / "test.bag").string()};
+  // --wait-for-subscribers: no message goes out before the node (and the recorder) connected to its topic; the
+  // bag's /tf_static is latched (the writer marks it so), so a late connection still gets the extrinsic.
+  const std::vector<std::string> play = {
+      "rosbag", "play", "--clock", "-q", "--wait-for-subscribers", (dir / "test.bag").string()};
 
   // 1. Global localization from nothing, as `localize --init global` does on the same bag.
   {
     Child player(play, dir / "play1.log");
     ASSERT_EQ(player.wait_for(180s), 0) << "rosbag play failed; see " << dir / "play1.log";
-    std::this_thread::sleep_for(1s);
+    ASSERT_TRUE(recorder.wait_for_last_scan(60s)) << "no status for the last scan; see " << dir / "node.log";
     ASSERT_TRUE(node.running()) << "the node died; see " << dir / "node.log";
     const std::vector<std::pair<Scan, Pose>> scans = recorder.take();
     const Outcome o = summarize(scans);
     print("node, global", o);
     ASSERT_GT(o.scans, 20u);
     ASSERT_TRUE(o.converged_after_s) << "never converged";
-    EXPECT_LT(*o.converged_after_s, 15.0);
+    // Counted in processed scans, not seconds: on a loaded machine the global search skips more of the bag's scans.
+    EXPECT_LT(o.converged_after_scans, 60u);
     EXPECT_EQ(o.false_claims, 0u);
     EXPECT_LT(o.rmse_m, 0.10);
     // The update time against the scan period is printed above, not asserted: speed is measured in bench/.
@@ -284,13 +267,15 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     EXPECT_GE(checked, 5u);
   }
 
-  // 2. global_localization: the node forgets its pose, searches again and finds it again.
+  // 2. global_localization: the node forgets its pose, searches again and finds it again. (Playing the bag again
+  // also sends time back, which restarts the filter with a global search by itself.)
   {
     std_srvs::Empty call;
     ASSERT_TRUE(ros::service::call("/global_localization", call));
+    recorder.clear_truth();
     Child player(play, dir / "play2.log");
     ASSERT_EQ(player.wait_for(180s), 0);
-    std::this_thread::sleep_for(1s);
+    ASSERT_TRUE(recorder.wait_for_last_scan(60s));
     const Outcome o = summarize(recorder.take());
     print("node, after global_localization", o);
     ASSERT_GT(o.scans, 20u);
@@ -312,14 +297,15 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     msg.pose.pose.position.y = truth.translation().y() - 0.2;
     msg.pose.pose.orientation.z = std::sin(yaw / 2);
     msg.pose.pose.orientation.w = std::cos(yaw / 2);
-    for (int i = 0; i < 50 && initial_pose.getNumSubscribers() == 0; ++i) std::this_thread::sleep_for(100ms);
+    ASSERT_TRUE(wait_until([&] { return initial_pose.getNumSubscribers() > 0; }, 60s));
     initial_pose.publish(msg);
-    std::this_thread::sleep_for(500ms);
-    std::vector<std::string> short_play = play;
-    short_play.insert(short_play.end() - 1, {"-u", "8"});
-    Child player(short_play, dir / "play3.log");
-    ASSERT_EQ(player.wait_for(120s), 0);
-    std::this_thread::sleep_for(1s);
+    // The node logs when it has the pose; only then may the bag start.
+    ASSERT_TRUE(recorder.wait_for_log("/initialpose received", 60s)) << "see " << dir / "node.log";
+    recorder.clear_truth();
+    // The whole bag: on a loaded machine the first updates after the reset take seconds each.
+    Child player(play, dir / "play3.log");
+    ASSERT_EQ(player.wait_for(180s), 0);
+    ASSERT_TRUE(recorder.wait_for_last_scan(60s));
     const Outcome o = summarize(recorder.take());
     print("node, after /initialpose", o);
     ASSERT_GT(o.scans, 5u);
@@ -331,11 +317,10 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     EXPECT_NEAR(o.first.pose.translation().z(), o.first_truth.translation().z(), 0.15);
     EXPECT_LT(angle_deg(o.first.pose, o.first_truth), 8.0);
     ASSERT_TRUE(o.converged_after_s);
-    EXPECT_LT(*o.converged_after_s, 5.0);
+    EXPECT_LT(o.converged_after_scans, 60u);
     EXPECT_EQ(o.false_claims, 0u);
   }
   node.stop();
-  ros::shutdown();
   rosmaster.stop();
   if (!HasFailure()) fs::remove_all(dir);
 }

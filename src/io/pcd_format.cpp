@@ -62,6 +62,10 @@ PcdHeader parse_pcd_header(const std::function<bool(std::string&)>& next_line, c
       if (values.size() != 1) throw Error(name + ": PCD POINTS needs one value");
       h.points = pcd_count(values[0], max_points, name, "POINTS");
       have_points = true;
+    } else if (key == "WIDTH" || key == "HEIGHT") {
+      // Not used (POINTS counts the points), but a value that is no count means a corrupt header.
+      if (values.size() != 1) throw Error(name + ": PCD " + key + " needs one value");
+      pcd_count(values[0], max_points, name, key);
     } else if (key == "DATA") {
       if (values.size() != 1) throw Error(name + ": PCD DATA needs one value");
       h.data = values[0];

@@ -95,9 +95,15 @@ PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_
       throw Error(what + ": PointCloud2 field '" + f.name + "' has datatype " + std::to_string(f.datatype) +
                   " (not a sensor_msgs/PointField type 1..8)");
     }
-    if (std::uint64_t{f.offset} + bytes > layout.point_step) {
-      throw Error(what + ": PointCloud2 field '" + f.name + "' (" + point_field_type_name(f.datatype) + " at offset " +
-                  std::to_string(f.offset) + ") does not fit in point_step " + std::to_string(layout.point_step));
+    // Count 0 is no value at all; an array (count > 1, the first element is read) must fit in the point.
+    if (f.count == 0) {
+      throw Error(what + ": PointCloud2 field '" + f.name + "' has count 0 (no value; x, y, z and intensity need 1)");
+    }
+    if (std::uint64_t{f.offset} + bytes * std::uint64_t{f.count} > layout.point_step) {
+      throw Error(what + ": PointCloud2 field '" + f.name + "' (" +
+                  (f.count > 1 ? std::to_string(f.count) + " x " : std::string()) + point_field_type_name(f.datatype) +
+                  " at offset " + std::to_string(f.offset) + ") does not fit in point_step " +
+                  std::to_string(layout.point_step));
     }
     *slot = FieldReader{f.offset, f.datatype, little_endian};
   }

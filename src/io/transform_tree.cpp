@@ -35,6 +35,15 @@ void TransformTree::add(const std::string& parent, const std::string& child, dou
   if (parent == child) throw Error("tf transform from frame " + in_quotes(child) + " to itself");
   if (parent.empty() || child.empty())
     throw Error("tf transform with an empty frame name (" + in_quotes(parent) + " -> " + in_quotes(child) + ")");
+  // A corrupt or absurd transform (1e300 m) would turn every pose downstream into NaN: one error here instead.
+  constexpr double kMaxTranslation = 1e6;  // m: no map spans 1000 km
+  if (!parent_T_child.matrix().allFinite() || parent_T_child.translation().cwiseAbs().maxCoeff() > kMaxTranslation) {
+    const Eigen::Vector3d t = parent_T_child.translation();
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "translation (%g, %g, %g) m is not finite or beyond %g m", t.x(), t.y(), t.z(),
+                  kMaxTranslation);
+    throw Error("tf " + in_quotes(parent) + " -> " + in_quotes(child) + ": " + buf);
+  }
   auto [it, inserted] = edges_.try_emplace(child);
   Edge& e = it->second;
   if (inserted) {

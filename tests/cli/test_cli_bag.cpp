@@ -78,7 +78,15 @@ TEST(CliBag, SimulatedBagReadsBackAsTheFolderDataset) {
   rosbag::Bag b(r.bag, rosbag::bagmode::Read);
   rosbag::View view(b);
   std::map<std::string, std::string> types;
-  for (const rosbag::ConnectionInfo* c : view.getConnections()) types[c->topic] = c->datatype;
+  std::map<std::string, std::string> latching;  // what `rosbag play` reads to latch a topic again
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    types[c->topic] = c->datatype;
+    const auto it = c->header ? c->header->find("latching") : decltype(c->header->end()){};
+    latching[c->topic] = c->header && it != c->header->end() ? it->second : "";
+  }
+  EXPECT_EQ(latching["/tf_static"], "1");
+  EXPECT_NE(latching["/points"], "1");
+  EXPECT_NE(latching["/tf"], "1");
   EXPECT_EQ(types, (std::map<std::string, std::string>{{"/points", "sensor_msgs/PointCloud2"},
                                                        {"/tf", "tf2_msgs/TFMessage"},
                                                        {"/tf_static", "tf2_msgs/TFMessage"},
@@ -96,6 +104,7 @@ TEST(CliBag, SimulatedBagReadsBackAsTheFolderDataset) {
     }
     if (auto tf = m.instantiate<tf2_msgs::TFMessage>(); tf && m.getTopic() == "/tf_static") {
       statics = true;
+      EXPECT_TRUE(m.isLatching());
       ASSERT_EQ(tf->transforms.size(), 1u);
       EXPECT_EQ(tf->transforms[0].header.frame_id, "base_link");
       EXPECT_EQ(tf->transforms[0].child_frame_id, "lidar");

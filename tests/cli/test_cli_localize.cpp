@@ -302,8 +302,12 @@ TEST(CliLocalize, HostileCountsConfigsAndOutputFolders) {
   EXPECT_NE(failed.exit_code, 0);
   EXPECT_EQ(test::read_bytes(out / "run/report.json"), report);
   EXPECT_FALSE(std::filesystem::exists(out / "run/snapshots"));
-  // A successful run replaces every result of the previous one.
+  // A successful run replaces every result of the previous one, and removes the staging folder a killed run left
+  // (its process no longer exists: PIDs stop far below 2^31 - 1).
+  const std::filesystem::path stale = out / ".run.partial-2147483647";
+  std::filesystem::create_directories(stale / "snapshots");
   ASSERT_EQ(run_cli(out, good + " --snapshot_every 1" + o).exit_code, 0);
+  EXPECT_FALSE(std::filesystem::exists(stale));
   EXPECT_TRUE(std::filesystem::exists(out / "run/snapshots/scan_000002.bin"));
   ASSERT_EQ(run_cli(out, good + o).exit_code, 0);
   EXPECT_FALSE(std::filesystem::exists(out / "run/snapshots"));

@@ -29,11 +29,12 @@ TEST(CliMap, BuildMapRejectsBadInput) {
   expect_one_line_error(dir, "build-map --mesh " + d + "/nothing.stl -o " + d + "/m.tsdf", "does not exist");
   expect_one_line_error(dir, "build-map --mesh " + box + " --voxel abc -o " + d + "/m.tsdf",
                         "--voxel expects a number");
-  expect_one_line_error(dir, "build-map --mesh " + box + " --voxel 0 -o " + d + "/m.tsdf", "--voxel must be positive");
+  expect_one_line_error(dir, "build-map --mesh " + box + " --voxel 0 -o " + d + "/m.tsdf",
+                        "--voxel must be in 0.005..2 m");
   expect_one_line_error(dir, "build-map --mesh " + box + " --voxel -0.1 -o " + d + "/m.tsdf",
-                        "--voxel must be positive");
+                        "--voxel must be in 0.005..2 m");
   expect_one_line_error(dir, "build-map --mesh " + box + " --truncation 0.02 -o " + d + "/m.tsdf",
-                        "must be at least the voxel size");
+                        "(at least the voxel, at most 64 voxels and 10 m)");
   expect_one_line_error(dir, "build-map --mesh " + box + " --colour red -o " + d + "/m.tsdf",
                         "unknown option --colour");
   expect_one_line_error(dir, "build-map --mesh " + box + " -o " + d + "/no/such/dir/m.tsdf", "does not exist");

@@ -200,16 +200,19 @@ double scan_time(int k) { return 0.925 + 0.05 * k; }
 struct RobotBag {
   TempDir dir;
   std::filesystem::path file;
-  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true) {
+  // `statics_at`: when /tf_static is recorded and stamped (a recording started after the static publisher holds
+  // the latched message at the time it subscribed, after the first scans).
+  RobotBag(int scans = 30, bool out_of_order = false, bool extrinsic = true, double statics_at = 0.5,
+           const Pose& base_to_sensor = kBaseToSensor) {
     file = dir / "robot.bag";
     rosbag::Bag bag(file.string(), rosbag::bagmode::Write);
-    tf2_msgs::TFMessage statics = tf_of("base_footprint", "base_link", 0.5, kFootprintToBase);
+    tf2_msgs::TFMessage statics = tf_of("base_footprint", "base_link", statics_at, kFootprintToBase);
     if (extrinsic) {
-      statics.transforms.push_back(tf_of("base_link", "os_sensor", 0.5, kBaseToSensor).transforms[0]);
-      statics.transforms.push_back(tf_of("os_sensor", "os_lidar", 0.5, kSensorToLidar).transforms[0]);
+      statics.transforms.push_back(tf_of("base_link", "os_sensor", statics_at, base_to_sensor).transforms[0]);
+      statics.transforms.push_back(tf_of("os_sensor", "os_lidar", statics_at, kSensorToLidar).transforms[0]);
     }
-    statics.transforms.push_back(tf_of("os_lidar", "imu_link", 0.5, kLidarToImu).transforms[0]);
-    bag.write("/tf_static", ros::Time(0.5), statics);
+    statics.transforms.push_back(tf_of("os_lidar", "imu_link", statics_at, kLidarToImu).transforms[0]);
+    bag.write("/tf_static", ros::Time(statics_at), statics);
     for (int k = 0; k <= 40; ++k) {
       const double t = 1.0 + 0.1 * k;
       bag.write("/tf", ros::Time(t), tf_of("odom", "base_footprint", t, odom_T_footprint(t)));
@@ -310,6 +313,19 @@ TEST(BagDataset, TfInterpolationAndExtrinsicComposition) {
   ASSERT_TRUE(imu_up_at(imu, ds.time(0)).has_value());
 }
 
+TEST(BagDataset, LatchedStaticTransformsRecordedMidStreamHoldFromTheStart) {
+  // /tf_static recorded (and stamped) at 3.0 s, after the last scan: it still places every scan.
+  const RobotBag late(30, false, true, 3.0);
+  const Dataset ds = Dataset::open_bag(late.file, robot_options());
+  const Dataset reference = Dataset::open_bag(robot_bag().file, robot_options());
+  ASSERT_EQ(ds.size(), reference.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    expect_near(ds.odometry(i), reference.odometry(i));
+    expect_near(ds.pose(i), reference.pose(i));
+  }
+  EXPECT_EQ(ds.imu().size(), reference.imu().size());
+}
+
 TEST(BagDataset, OdometryFromATopic) {
   BagOptions o = robot_options();
   o.odom_topic = "/odom";
@@ -366,6 +382,14 @@ TEST(BagDataset, ClearErrors) {
   const RobotBag no_static(10, false, /*extrinsic=*/false);
   const std::string missing = open(no_static.file, robot_options());
   EXPECT_NE(missing.find("no tf connects 'base_link' and 'os_lidar'"), std::string::npos) << missing;
+
+  // An extrinsic of 1e300 m gave a trajectory of -nan lines with exit status 0 (localize --bag).
+  const RobotBag absurd(10, false, true, 0.5, pose_from_xyz_rpy(1e300, 0, 0, 0, 0, 0));
+  const std::string far = open(absurd.file, robot_options());
+  EXPECT_NE(far.find("/tf_static message 0: tf 'base_link' -> 'os_sensor': translation (1e+300, 0, 0) m is not "
+                     "finite or beyond 1e+06 m"),
+            std::string::npos)
+      << far;
 
   const RobotBag disordered(10, /*out_of_order=*/true);
   EXPECT_NE(open(disordered.file, robot_options())

@@ -57,6 +57,19 @@ PointCloud2Layout xyz_float32(std::uint32_t width, std::uint32_t height = 1) {
   return l;
 }
 
+TEST(PointCloud2, FieldCountZeroOrBeyondThePointIsAnError) {
+  PointCloud2Layout l = xyz_float32(2);
+  const std::vector<std::uint8_t> data(24, 0);
+  l.fields[1].count = 0;
+  EXPECT_NE(error_of(l, data).find("field 'y' has count 0"), std::string::npos) << error_of(l, data);
+  l.fields[1].count = 1000000000;
+  EXPECT_NE(error_of(l, data).find("field 'y' (1000000000 x FLOAT32 at offset 4) does not fit in point_step 12"),
+            std::string::npos)
+      << error_of(l, data);
+  l.fields[1].count = 1;
+  EXPECT_EQ(error_of(l, data), "");
+}
+
 TEST(PointCloud2, XyzFloat32) {
   const PointCloud2Layout l = xyz_float32(3);
   Bytes b(36);

@@ -101,5 +101,20 @@ TEST(TransformTree, ErrorsNameTheFrames) {
   EXPECT_NE(error_of([&] { loop.lookup("a", "c", 0.0); }).find("loop"), std::string::npos);
 }
 
+TEST(TransformTree, AbsurdOrNonFiniteTransformsAreOneError) {
+  // A /tf_static extrinsic of 1e300 m made `localize --bag` write -nan trajectories with exit status 0.
+  TransformTree tree;
+  const std::string far =
+      error_of([&] { tree.add("base_link", "lidar", 0.0, pose_from_xyz_rpy(1e300, 0, 0, 0, 0, 0), true); });
+  EXPECT_NE(far.find("tf 'base_link' -> 'lidar': translation (1e+300, 0, 0) m is not finite or beyond 1e+06 m"),
+            std::string::npos)
+      << far;
+  Pose nan = Pose::Identity();
+  nan.translation().z() = std::nan("");
+  EXPECT_NE(error_of([&] { tree.add("odom", "base_link", 1.0, nan, false); }).find("not finite"), std::string::npos);
+  EXPECT_FALSE(tree.has_frame("lidar"));
+  EXPECT_NO_THROW(tree.add("base_link", "lidar", 0.0, pose_from_xyz_rpy(999999, 0, 0, 0, 0, 0), true));
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

@@ -2,6 +2,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -23,6 +24,10 @@ namespace tsdf_mcl::cli {
 namespace {
 
 constexpr int kImportError = 2;  // the child's exit status for an import error it words itself
+// The valid --voxel and --truncation (m): a map of 2 m voxels locates nothing; a band of more than 64 voxels or
+// 10 m makes every ray cost thousands of voxel updates.
+constexpr double kMinVoxel = 0.005, kMaxVoxel = 2.0;
+constexpr double kMaxTruncationVoxels = 64.0, kMaxTruncation = 10.0;
 
 // libhdf5 itself can crash on a crafted file (tests/data/libhdf5_crash_local_heap.h5) before any of our checks see
 // data, so the import runs in a child process: a crash there is one error line here, not a dead command.
@@ -198,10 +203,15 @@ int run_build_map(int argc, char** argv) {
   }
   const double voxel = h5 ? 0.064 : o.number("voxel");
   const double truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
-  if (!(voxel > 0.0)) throw Error("--voxel must be positive, got " + o.text("voxel"));
-  if (!(truncation >= voxel)) {
-    throw Error("--truncation (" + format("%g m", truncation) + ") must be at least the voxel size (" +
-                format("%g m", voxel) + ")");
+  if (!(voxel >= kMinVoxel && voxel <= kMaxVoxel)) {
+    throw Error("--voxel must be in " + format("%g..%g m", kMinVoxel, kMaxVoxel) + ", got " + o.text("voxel"));
+  }
+  // The band integrated around every ray is truncation / voxel voxels deep: bounded so a build ends in its time.
+  const double max_truncation = std::min(kMaxTruncationVoxels * voxel, kMaxTruncation);
+  if (!(truncation >= voxel && truncation <= max_truncation)) {
+    throw Error("--truncation must be in " + format("%g..%g m", voxel, max_truncation) + " (at least the voxel, " +
+                "at most " + format("%g", kMaxTruncationVoxels) + " voxels and " + format("%g m", kMaxTruncation) +
+                "), got " + format("%g m", truncation));
   }
   const double margin = o.number("margin");
   if (margin < 0.0) throw Error("--margin must not be negative");

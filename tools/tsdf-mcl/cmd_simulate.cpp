@@ -20,6 +20,15 @@ namespace tsdf_mcl::cli {
 
 namespace {
 
+// The longest run simulate makes: --duration 1e12 would never end (an hour is 36,000 scans at 10 Hz).
+constexpr double kMaxDurationS = 3600.0, kMaxLengthM = 20000.0;
+
+std::string format(const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
 sim::Platform platform_of(const std::string& name) {
   if (name == "ground") return sim::Platform::ground;
   if (name == "handheld") return sim::Platform::handheld;
@@ -155,11 +164,15 @@ int run_simulate(int argc, char** argv) {
   if (o.has("duration") && o.has("length")) throw Error("give --duration or --length, not both");
   if (o.has("duration")) {
     s.duration_s = o.number("duration");
-    if (!(s.duration_s > 0.0)) throw Error("--duration must be positive");
+    if (!(s.duration_s > 0.0 && s.duration_s <= kMaxDurationS)) {
+      throw Error("--duration must be in (0, " + format("%g", kMaxDurationS) + "] s, got " + o.text("duration"));
+    }
   }
   if (o.has("length")) {
     s.length_m = o.number("length");
-    if (!(s.length_m > 0.0)) throw Error("--length must be positive");
+    if (!(s.length_m > 0.0 && s.length_m <= kMaxLengthM)) {
+      throw Error("--length must be in (0, " + format("%g", kMaxLengthM) + "] m, got " + o.text("length"));
+    }
   }
   s.platform = platform_of(o.text("platform"));
   s.robot = sim::RobotModel::of(s.platform);

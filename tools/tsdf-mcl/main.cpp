@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/localizer/localizer_parameters.hpp"
 
 namespace {
@@ -54,21 +55,21 @@ int main(int argc, char** argv) {
     try {
       return c.run(argc, argv);
     } catch (const tsdf_mcl::Error& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, e.what());
+      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
       return 1;
     } catch (const std::bad_alloc&) {
       // Inputs are bounded by the documented limits (README "Limits"); within them the machine may still run out.
       std::fprintf(stderr, "tsdf-mcl %s: error: out of memory (see the limits in README.md)\n", c.name);
       return 1;
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, e.what());
+      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
       return 3;
     }
   }
   std::vector<std::string> names;
   for (const auto& c : kCommands) names.push_back(c.name);
   const std::string close = tsdf_mcl::did_you_mean(argv[1], names, "tsdf-mcl ");
-  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'%s; tsdf-mcl --help lists the commands\n", argv[1],
-               close.c_str());
+  std::fprintf(stderr, "tsdf-mcl: unknown command '%s'%s; tsdf-mcl --help lists the commands\n",
+               tsdf_mcl::one_line(argv[1]).c_str(), close.c_str());
   return 2;
 }

@@ -4,7 +4,8 @@
 //   points_topic        sensor_msgs/PointCloud2  frame cloud_frame: x y z intensity FLOAT32 (+ ring UINT16 where
 //                                                the scans have rings), header stamp = the scan's time
 //   /tf                 tf2_msgs/TFMessage       odom_frame -> base_frame (odom_T_sensor * sensor_T_base) per scan
-//   /tf_static          tf2_msgs/TFMessage       base_frame -> cloud_frame (base_T_sensor), once
+//   /tf_static          tf2_msgs/TFMessage       base_frame -> cloud_frame (base_T_sensor), once, latched
+//                                                (connection header latching=1, as `rosbag record` writes it)
 //   odom_topic          nav_msgs/Odometry        odom_frame -> base_frame, the same as /tf ("" = not written)
 //   ground_truth_topic  nav_msgs/Odometry        world_frame -> base_frame (world_T_sensor * sensor_T_base)
 //   imu_topic           sensor_msgs/Imu          frame cloud_frame (the IMU sits in the LiDAR), add_imu's samples

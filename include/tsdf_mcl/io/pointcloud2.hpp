@@ -4,10 +4,10 @@
 // that it is tested and fuzzed where no ROS package is installed; the bag reader (Dataset::open_bag) feeds it.
 //
 // What it reads: x, y and z as FLOAT32 or FLOAT64 at any offsets within point_step (each field once, count 1 or
-// more: the first element), `intensity` of any numeric type where the message has it; every other field (ring,
-// t/time, reflectivity, ...) is ignored. Organized clouds (height > 1) are read row by row, rows row_step bytes
-// apart (row padding allowed), big-endian data is swapped. Points with a NaN or infinite coordinate are dropped and
-// counted (organized Ouster / Velodyne clouds mark missing returns so).
+// more, all elements within point_step: the first is read; count 0 is an error), `intensity` of any numeric type where
+// the message has it; every other field (ring, t/time, reflectivity, ...) is ignored. Organized clouds (height > 1) are
+// read row by row, rows row_step bytes apart (row padding allowed), big-endian data is swapped. Points with a NaN or
+// infinite coordinate are dropped and counted (organized Ouster / Velodyne clouds mark missing returns so).
 //
 // Every size field is hostile input: width * height and row_step * (height - 1) + width * point_step are computed
 // with checked arithmetic and compared with the data's length before a byte is read; a field must lie within

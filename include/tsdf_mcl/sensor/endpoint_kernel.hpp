@@ -3,7 +3,7 @@
 // endpoint model's likelihood, in the same float operations and order as shaders/endpoint_weight.comp
 // (its GLSL mirror: shaders/endpoint_model.glsl), so that CPU and GPU land in the same voxel and agree to
 // float tolerance (every layer is built with -ffp-contract=off; the shader marks these lines `precise`). The map
-// lookup itself is tsdf_mcl/map_lookup.hpp.
+// lookup itself is tsdf_mcl/map/map_lookup.hpp.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

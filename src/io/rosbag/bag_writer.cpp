@@ -3,6 +3,7 @@
 // its exact type, MD5 sum and full definition, which other tools (rosbag info, rqt_bag, Python's rosbag) need.
 #include <unistd.h>
 
+#include <boost/make_shared.hpp>
 #include <cmath>
 #include <filesystem>
 #include <geometry_msgs/TransformStamped.h>
@@ -63,10 +64,22 @@ struct BagWriter::Impl {
   double last_time = 0.0;
   bool closed = false;
 
+  // `latched`: the connection header says latching=1, as `rosbag record` keeps it from a latched publisher, so
+  // `rosbag play` latches the topic again and a subscriber that connects late still receives it.
   template <typename Message>
-  void write(const std::string& topic, const ros::Time& time, const Message& message) {
+  void write(const std::string& topic, const ros::Time& time, const Message& message, bool latched = false) {
     try {
-      bag.write(topic, time, message);
+      if (!latched) {
+        bag.write(topic, time, message);
+        return;
+      }
+      auto header = boost::make_shared<ros::M_string>();
+      (*header)["type"] = ros::message_traits::datatype(message);
+      (*header)["md5sum"] = ros::message_traits::md5sum(message);
+      (*header)["message_definition"] = ros::message_traits::definition(message);
+      (*header)["callerid"] = "/tsdf_mcl_simulate";
+      (*header)["latching"] = "1";
+      bag.write(topic, time, message, header);
     } catch (const std::exception& e) {
       throw Error("cannot write " + partial.string() + ": " + e.what());
     }
@@ -125,7 +138,7 @@ void BagWriter::add_scan(double time, const PointCloud& cloud, const std::vector
     t.child_frame_id = o.cloud_frame;
     t.transform = transform_msg(w.base_T_sensor);
     statics.transforms.push_back(t);
-    w.write("/tf_static", stamp, statics);
+    w.write("/tf_static", stamp, statics, true);
   }
 
   const EncodedPointCloud2 encoded = encode_pointcloud2(cloud, rings);

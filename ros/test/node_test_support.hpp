@@ -1,0 +1,125 @@
+#pragma once
+// What the ROS node tests share: child processes, the CLI, a ROS master of their own, and waiting on a condition.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <memory>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace tsdf_mcl::ros_node {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+// A child process with its output in a log file; stopped with SIGINT (as roslaunch does), then SIGKILL.
+class Child {
+ public:
+  Child(const std::vector<std::string>& args, const fs::path& log) : name_(args.front()) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (fd >= 0) {
+        dup2(fd, 1);
+        dup2(fd, 2);
+      }
+      std::vector<char*> argv;
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      execvp(argv[0], argv.data());
+      _exit(127);
+    }
+  }
+  ~Child() { stop(); }
+  // Exit status once the child ended within `timeout`, else -1 (still running).
+  int wait_for(std::chrono::seconds timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (pid_ > 0 && std::chrono::steady_clock::now() < end) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+    return pid_ > 0 ? -1 : 0;
+  }
+  bool running() {
+    if (pid_ <= 0) return false;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == pid_) pid_ = -1;
+    return pid_ > 0;
+  }
+  void stop() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGINT);
+    if (wait_for(10s) < 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    pid_ = -1;
+  }
+
+ private:
+  std::string name_;
+  pid_t pid_ = -1;
+};
+
+inline void run_cli(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(TSDF_MCL_CLI) + " " + args + " >>'" + log.string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd << " failed; see " << log;
+}
+
+// Polls `done` (a connection count, a flag a callback set) until it holds or `timeout` passed. The bound only
+// stops a broken run; nothing waits a fixed time.
+template <typename F>
+bool wait_until(F&& done, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(20ms);
+  }
+  return true;
+}
+
+// A master of our own on the loopback address (nothing else on the machine hears it), and this process as a ROS
+// node on it (ros::init; the caller calls ros::start()).
+class Master {
+ public:
+  explicit Master(const fs::path& dir) {
+    const int port = 20000 + static_cast<int>(getpid() % 20000);
+    const std::string master = "http://127.0.0.1:" + std::to_string(port);
+    setenv("ROS_MASTER_URI", master.c_str(), 1);
+    setenv("ROS_HOSTNAME", "127.0.0.1", 1);
+    setenv("ROS_HOME", (dir / "ros").c_str(), 1);
+    setenv("ROS_LOG_DIR", (dir / "ros").c_str(), 1);
+    fs::create_directories(dir / "ros");
+    process_ = std::make_unique<Child>(std::vector<std::string>{"rosmaster", "--core", "-p", std::to_string(port)},
+                                       dir / "rosmaster.log");
+    int argc = 1;
+    char name[] = "tsdf_mcl_test";
+    char* argv[] = {name, nullptr};
+    ros::init(argc, argv, "tsdf_mcl_test", ros::init_options::NoSigintHandler | ros::init_options::AnonymousName);
+    up_ = wait_until([] { return ros::master::check(); }, 60s);
+  }
+  ~Master() { stop(); }
+  bool up() const { return up_; }
+  void stop() {
+    if (ros::isStarted()) ros::shutdown();
+    process_.reset();
+  }
+
+ private:
+  std::unique_ptr<Child> process_;
+  bool up_ = false;
+};
+
+}  // namespace tsdf_mcl::ros_node

@@ -1,0 +1,288 @@
+// The node against what real robots and bags send it: a missing extrinsic, messages out of order, stamps ROS time
+// cannot hold, NaN and absurd poses, time going back; and bad parameters or a missing map at start. The test itself
+// publishes the messages (no bag): each step waits for the node's /diagnostics on a scan, never a fixed time.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cmath>
+#include <condition_variable>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+
+#include "node_test_support.hpp"
+#include "ros_conversions.hpp"
+
+namespace tsdf_mcl::ros_node {
+namespace {
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The node's statuses by scan stamp, and its poses.
+class Listener {
+ public:
+  explicit Listener(ros::NodeHandle& nh) {
+    subs_.push_back(nh.subscribe("/diagnostics", 100, &Listener::on_status, this));
+    subs_.push_back(nh.subscribe("/amcl_pose", 100, &Listener::on_pose, this));
+  }
+  void on_status(const diagnostic_msgs::DiagnosticArrayConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& s : m->status) {
+      if (s.name == "tsdf_mcl: localization") statuses_[m->header.stamp] = s;
+    }
+    cv_.notify_all();
+  }
+  void on_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    poses_[m->header.stamp] = *m;
+  }
+  std::optional<diagnostic_msgs::DiagnosticStatus> wait_status(const ros::Time& stamp, std::chrono::seconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!cv_.wait_for(lock, timeout, [&] { return statuses_.count(stamp) > 0; })) return std::nullopt;
+    return statuses_.at(stamp);
+  }
+  std::optional<geometry_msgs::PoseWithCovarianceStamped> pose(const ros::Time& stamp) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = poses_.find(stamp);
+    if (it == poses_.end()) return std::nullopt;
+    return it->second;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::map<ros::Time, diagnostic_msgs::DiagnosticStatus> statuses_;
+  std::map<ros::Time, geometry_msgs::PoseWithCovarianceStamped> poses_;
+  std::vector<ros::Subscriber> subs_;
+};
+
+std::string value(const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
+  for (const auto& kv : s.values)
+    if (kv.key == key) return kv.value;
+  return "";
+}
+
+std::size_t count(const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
+  const std::string v = value(s, key);
+  return v.empty() ? 0 : std::stoul(v);
+}
+
+geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child, const ros::Time& t,
+                                          double x) {
+  geometry_msgs::TransformStamped m;
+  m.header.stamp = t;
+  m.header.frame_id = parent;
+  m.child_frame_id = child;
+  m.transform.translation.x = x;
+  m.transform.translation.z = x == 0.0 ? 0.5 : 0.0;
+  m.transform.rotation.w = 1.0;
+  return m;
+}
+
+// Starts the node with `params`; returns its exit status once it ended within 60 s (-1: still running).
+int start_and_exit(const std::vector<std::string>& params, const fs::path& log) {
+  // A name of its own: parameters stay on the master after a node ends.
+  static int started = 0;
+  std::vector<std::string> args = {TSDF_MCL_NODE, "__name:=tsdf_mcl_bad" + std::to_string(started++)};
+  args.insert(args.end(), params.begin(), params.end());
+  Child node(args, log);
+  return node.wait_for(60s);
+}
+
+TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
+  const fs::path dir = fs::temp_directory_path() / ("tsdf_mcl_ros_hostile_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path log = dir / "cli.log";
+  // A small map: 6 m of the office's test route.
+  run_cli("simulate --scene office --lidar vlp16 --route test --seed 2 --length 6 -o '" + (dir / "run").string() + "'",
+          log);
+  run_cli("build-map --dataset '" + (dir / "run").string() + "' -o '" + (dir / "map.tsdf").string() + "'", log);
+  if (HasFatalFailure()) return;
+  const std::string map = "_map_file:=" + (dir / "map.tsdf").string();
+
+  Master rosmaster(dir);
+  ASSERT_TRUE(rosmaster.up()) << "rosmaster did not start; see " << dir / "rosmaster.log";
+  ros::start();
+
+  // Bad starts: one error naming what is wrong, exit status 1.
+  struct BadStart {
+    std::vector<std::string> params;
+    std::string error;
+  };
+  const std::vector<BadStart> bad = {
+      {{"_map_file:=" + (dir / "missing.tsdf").string()}, "missing.tsdf"},
+      {{map, "_transform_tolerance:=.nan"}, "~transform_tolerance must be a number in 0..60, got"},
+      {{map, "_transform_tolerance:=abc"}, "~transform_tolerance must be a number in 0..60, got 'abc'"},
+      {{map, "_map_cloud_points:=1000000000000"},
+       "~map_cloud_points must be a whole number in 0..1e+08, got 1000000000000"},
+  };
+  for (std::size_t i = 0; i < bad.size(); ++i) {
+    const fs::path node_log = dir / ("bad" + std::to_string(i) + ".log");
+    EXPECT_EQ(start_and_exit(bad[i].params, node_log), 1) << bad[i].error;
+    const std::string text = read_text(node_log);
+    EXPECT_NE(text.find(bad[i].error), std::string::npos) << text;
+  }
+
+  ros::NodeHandle nh;
+  Listener listener(nh);
+  ros::Publisher points = nh.advertise<sensor_msgs::PointCloud2>("/points", 10);
+  ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom", 100);
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("/imu", 100);
+  ros::Publisher tf = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  ros::Publisher tf_static = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 10, true);
+  ros::Publisher initial_pose = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("/initialpose", 10);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", map, "_point_topics:=/points", "_odom_topic:=/odom",
+              "_imu_topic:=/imu", "_backend:=cpu", "_particles:=3000", "_seed:=1"},
+             dir / "node.log");
+  ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
+      << "the node did not come up; see " << dir / "node.log";
+  for (ros::Publisher* p : {&points, &odom, &imu, &tf, &tf_static, &initial_pose}) {
+    ASSERT_TRUE(wait_until([&] { return p->getNumSubscribers() > 0; }, 60s)) << p->getTopic();
+  }
+
+  // A ring of wall points 3 m around the sensor: enough for the filter to run (the pose does not matter here).
+  PointCloud ring;
+  for (int i = 0; i < 720; ++i) {
+    const float a = static_cast<float>(i) * 0.0087266f;
+    ring.points.emplace_back(3.0f * std::cos(a), 3.0f * std::sin(a), static_cast<float>(i % 8) * 0.2f - 0.6f);
+  }
+  sensor_msgs::PointCloud2 cloud = msg_from_cloud(ring);
+  cloud.header.frame_id = "lidar";
+  double now = 1000.0;
+  auto odometry = [&](double t, double x) {
+    nav_msgs::Odometry m;
+    m.header.stamp = ros::Time(t);
+    m.header.frame_id = "odom";
+    m.child_frame_id = "base_link";
+    m.pose.pose.position.x = x;
+    m.pose.pose.orientation.w = 1.0;
+    odom.publish(m);
+  };
+  auto imu_sample = [&](double t, double az) {
+    sensor_msgs::Imu m;
+    m.header.stamp = ros::Time(t);
+    m.header.frame_id = "lidar";
+    m.orientation_covariance[0] = -1.0;
+    m.linear_acceleration.z = az;
+    imu.publish(m);
+  };
+  // One scan 0.1 s after the last, with odometry and an IMU sample before it; the node's status on it.
+  auto scan = [&]() -> diagnostic_msgs::DiagnosticStatus {
+    now += 0.1;
+    odometry(now - 0.05, 0.0);
+    imu_sample(now - 0.05, 9.81);
+    cloud.header.stamp = ros::Time(now);
+    points.publish(cloud);
+    const auto s = listener.wait_status(ros::Time(now), 60s);
+    if (!s) {
+      ADD_FAILURE() << "no status for the scan at " << now << "; see " << dir / "node.log";
+      return {};
+    }
+    return *s;
+  };
+  // Scans until `done` holds for a status (messages on other topics may reach the node a scan later).
+  auto scan_until = [&](auto done) -> diagnostic_msgs::DiagnosticStatus {
+    diagnostic_msgs::DiagnosticStatus s;
+    for (int i = 0; i < 30; ++i) {
+      s = scan();
+      if (HasFailure() || done(s)) return s;
+    }
+    ADD_FAILURE() << "30 scans without the expected status; last: " << s.message;
+    return s;
+  };
+
+  // 1. No base_link -> lidar anywhere: one actionable error per scan, nothing invented.
+  odometry(now, 0.0);
+  diagnostic_msgs::DiagnosticStatus s = scan();
+  EXPECT_EQ(s.level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_NE(s.message.find("no transform base_link -> lidar"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("static_transform_publisher"), std::string::npos) << s.message;
+  EXPECT_EQ(s.message.find('\n'), std::string::npos);
+  EXPECT_FALSE(listener.pose(ros::Time(now)));
+
+  // 2. The extrinsic appears (latched, as a robot_state_publisher started late sends it): the node recovers.
+  tf2_msgs::TFMessage statics;
+  statics.transforms.push_back(transform("base_link", "lidar", ros::Time(now), 0.0));
+  tf_static.publish(statics);
+  s = scan_until([](const auto& st) { return count(st, "processed_scans") > 0; });
+  EXPECT_NE(s.level, diagnostic_msgs::DiagnosticStatus::ERROR) << s.message;
+  ASSERT_TRUE(listener.pose(ros::Time(now)));
+
+  // 3. Hostile messages: each rejected and counted, the node keeps going.
+  std::size_t rejected = count(s, "rejected_messages");
+  auto expect_rejected = [&](const std::string& what, const std::string& reason) {
+    s = scan_until([&](const auto& st) {
+      return count(st, "rejected_messages") > rejected && value(st, "last_rejection").find(reason) != std::string::npos;
+    });
+    EXPECT_NE(value(s, "last_rejection").find(reason), std::string::npos) << what << ": " << value(s, "last_rejection");
+    rejected = count(s, "rejected_messages");
+    ASSERT_TRUE(node.running()) << what << " ended the node; see " << dir / "node.log";
+  };
+  imu_sample(now + 0.02, 9.81);
+  imu_sample(now - 0.5, 9.81);  // older than the last sample
+  expect_rejected("IMU out of order", "not after the previous sample");
+  imu_sample(now + 0.02, std::numeric_limits<double>::quiet_NaN());
+  expect_rejected("NaN IMU", "not finite");
+  {
+    nav_msgs::Odometry m;
+    m.header.stamp = ros::Time(3000000000u, 0);
+    m.header.frame_id = "odom";
+    m.pose.pose.orientation.w = 1.0;
+    odom.publish(m);
+  }
+  expect_rejected("odometry at 3e9 s", "odometry on /odom: stamp 3000000000 s is beyond 2^31 s");
+  {
+    tf2_msgs::TFMessage m;
+    m.transforms.push_back(transform("odom", "base_link", ros::Time(4294967290u, 0), 1.0));
+    tf.publish(m);
+  }
+  expect_rejected("tf near 2^32 s", "/tf odom -> base_link: stamp 4294967290 s is beyond 2^31 s");
+  odometry(now + 0.02, std::numeric_limits<double>::quiet_NaN());
+  expect_rejected("NaN odometry", "non-finite pose");
+  for (const double bad_x :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(), 1e300}) {
+    geometry_msgs::PoseWithCovarianceStamped m;
+    m.header.frame_id = "map";
+    m.pose.pose.position.x = bad_x;
+    m.pose.pose.orientation.w = 1.0;
+    initial_pose.publish(m);
+    expect_rejected("/initialpose at x " + std::to_string(bad_x), "/initialpose");
+  }
+  const auto pose = listener.pose(ros::Time(now));
+  ASSERT_TRUE(pose) << "no pose for the last scan";
+  EXPECT_TRUE(std::isfinite(pose->pose.pose.position.x) && std::isfinite(pose->pose.pose.position.y) &&
+              std::isfinite(pose->pose.pose.position.z));
+  const std::size_t processed = count(s, "processed_scans");
+
+  // 4. Time goes back 100 s (the bag played again): tf and filter restart, the node goes on from the new time.
+  now -= 100.0;
+  tf_static.publish(statics);
+  s = scan_until([](const auto& st) { return count(st, "time_jumps") > 0 && st.level != 2; });
+  EXPECT_EQ(count(s, "time_jumps"), 1u);
+  EXPECT_NE(s.message, "converged") << "the first scan after time went back claims convergence";
+  EXPECT_GT(count(s, "processed_scans"), processed);
+  EXPECT_TRUE(node.running());
+  node.stop();
+  rosmaster.stop();
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tsdf_mcl::ros_node
