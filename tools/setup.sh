@@ -12,7 +12,7 @@ arm64=0
 [ "${1:-}" = "--arm64" ] && arm64=1
 
 packages=(
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git ccache
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   glslc glslang-tools spirv-tools
   libeigen3-dev libglm-dev libgtest-dev

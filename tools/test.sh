@@ -4,9 +4,12 @@
 #   bash tools/test.sh          install what is missing, check the format, build (Release, preset `release`: the
 #                               build the demo made is reused) and run the whole suite, ROS node included, on
 #                               lavapipe with the Vulkan validation layers on.
-#   bash tools/test.sh --full   CI (.ci/run): the suite built with warnings as errors (preset `ci`), then built
-#                               with clang, ASan and UBSan (any finding fails the run), and every fuzzer for a short,
-#                               bounded time (TSDF_MCL_FUZZ_SECONDS, default 20).
+#   bash tools/test.sh --full   CI (.ci/run): the suite built with warnings as errors (preset `ci`); the arm64 cross
+#                               build's subset under qemu-aarch64 (tools/test_arm64.sh, docs/deploy.md); the suite
+#                               built with clang, ASan and UBSan (any finding fails the run); every fuzzer for a
+#                               short, bounded time (TSDF_MCL_FUZZ_SECONDS, default 20).
+# Compilers run through ccache where setup.sh installed it, so a rebuild of unchanged sources (another clone, the
+# sanitizer build after a clean checkout) costs little.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,6 +22,10 @@ esac
 jobs="$(nproc)"
 preset=release
 [ "$full" = 1 ] && preset=ci
+
+if command -v ccache >/dev/null; then
+  export CCACHE_BASEDIR="$PWD" CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
+fi
 
 step() { printf '\n==> test.sh: %s (%s)\n' "$1" "$(date -u +%H:%M:%S)" >&2; }
 
@@ -44,10 +51,14 @@ step_asan() {
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 LSAN_OPTIONS=suppressions="$PWD/tools/lsan.supp" \
     ctest --preset asan -j "$jobs" --timeout 900 -E "$asan_skip"
 }
+step_arm64() {
+  bash tools/setup.sh --arm64
+  bash tools/test_arm64.sh
+}
 step_fuzz() { bash tools/fuzz.sh "${TSDF_MCL_FUZZ_SECONDS:-20}"; }
 
 STEPS=(setup format build suite)
-[ "$full" = 1 ] && STEPS+=(asan fuzz)
+[ "$full" = 1 ] && STEPS+=(arm64 asan fuzz)
 
 start=$SECONDS
 for s in "${STEPS[@]}"; do
