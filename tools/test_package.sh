@@ -31,7 +31,7 @@ fi
 dpkg-deb -c "$cli" >"$work/cli.list"
 dpkg-deb -c "$dev" >"$work/dev.list"
 grep -q '\./usr/bin/tsdf-mcl$' "$work/cli.list" || fail "$cli lacks usr/bin/tsdf-mcl"
-for f in 'include/tsdf_mcl/cpu_evaluator.hpp' 'cmake/tsdf_mcl/tsdf_mclConfig.cmake' 'libtsdf_mcl_core.a' \
+for f in 'include/tsdf_mcl/cpu/cpu_evaluator.hpp' 'cmake/tsdf_mcl/tsdf_mclConfig.cmake' 'libtsdf_mcl_core.a' \
   'pkgconfig/tsdf_mcl.pc'; do
   grep -q "$f\$" "$work/dev.list" || fail "$dev lacks $f"
 done
