@@ -50,7 +50,7 @@ step "5/7 global localization on the test run ($particles particles, backend $ba
 # Global, with no initial guess and no priors: the up direction and the sensor's height come from the first
 # scan (docs/filter.md). Particle snapshots every 10 scans for the picture below.
 "$cli" localize --map "$out/office.tsdf" --dataset "$out/test" --init global --particles "$particles" \
-  --snapshot_every 10 --backend "$backend" --seed "$seed" -o "$out/run" 2> >(tee "$out/localize.log" >&2)
+  --snapshot_every 10 --backend "$backend" --seed "$seed" --overwrite -o "$out/run" 2> >(tee "$out/localize.log" >&2)
 
 step "6/7 evaluating against ground truth"
 "$cli" evaluate --estimate "$out/run/trajectory.tum" --dataset "$out/test" --plot "$out/translation_error.png" \

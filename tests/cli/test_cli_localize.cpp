@@ -75,7 +75,7 @@ TEST(CliLocalize, ImuGravityGuidesThePriorFreeGlobalSearch) {
   const std::string args =
       "localize --map " + f.map + " --dataset " + data +
       " --backend cpu --particles 20000 --max_particles 20000 --init_candidates 200000 --max_beams 256"
-      " --update_min_d 0 --update_min_a 0 -o " +
+      " --update_min_d 0 --update_min_a 0 --overwrite -o " +
       o;
   const CliResult r = run_cli(out, args);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -202,7 +202,7 @@ TEST(CliLocalize, HelpListsEveryOptionWithItsDefault) {
 TEST(CliLocalize, BadInputGivesOneClearError) {
   const Fixture& f = fixture();
   TempDir out;
-  const std::string o = " -o " + (out / "run").string();
+  const std::string o = " --overwrite -o " + (out / "run").string();  // runs one after another into one folder
   const std::string base = "localize --map " + f.map + " --backend cpu --particles 200";
 
   // A dataset without odom.txt under the default odometry motion model.
@@ -268,7 +268,7 @@ TEST(CliLocalize, HostileCountsConfigsAndOutputFolders) {
   const Fixture& f = fixture();
   TempDir out;
   const std::string base = "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --particles 200";
-  const std::string o = " -o " + (out / "run").string();
+  const std::string o = " --overwrite -o " + (out / "run").string();  // runs one after another into one folder
   expect_one_line_error(out, base + " --cpu_threads 100000" + o, "cpu_threads 100000 is more than the limit of 256");
   expect_one_line_error(out, base + " --particles 4294967296" + o, "particles 4294967296 is more than the limit");
   expect_one_line_error(out, base + " --max_particles 4294967295" + o, "max_particles 4294967295 is more than");

@@ -149,6 +149,18 @@ TEST(CliUx, VersionInTheProgramAndTheReport) {
   EXPECT_EQ(report["version"], TSDF_MCL_VERSION);
 }
 
+// A second run into the same folder keeps the first one's results unless --overwrite says to replace them.
+TEST(CliUx, AnEarlierRunIsKeptUnlessOverwriteIsGiven) {
+  TempDir out;
+  ASSERT_EQ(run_cli(out, localize(" --count 2 --quiet", out, "run")).exit_code, 0);
+  const std::string first = test::read_bytes(out / "run/trajectory.tum");
+  expect_one_line_error(out, localize(" --count 3 --quiet", out, "run"),
+                        "holds an earlier run's results (report.json); pass --overwrite");
+  EXPECT_EQ(test::read_bytes(out / "run/trajectory.tum"), first) << "a refused run must not touch the folder";
+  ASSERT_EQ(run_cli(out, localize(" --count 3 --quiet --overwrite", out, "run")).exit_code, 0);
+  EXPECT_NE(test::read_bytes(out / "run/trajectory.tum"), first);
+}
+
 TEST(CliUx, DidYouMeanForCommandsOptionsAndParameters) {
   TempDir out;
   CliResult r = run_cli(out, "locailze --map x");

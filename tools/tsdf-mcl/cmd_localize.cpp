@@ -19,6 +19,7 @@
 #include "progress.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/io/imu.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 #include "tsdf_mcl/localizer/localization_report.hpp"
@@ -52,6 +53,8 @@ std::vector<OptionSpec> localize_options() {
       {"output", "DIR", "",
        "output folder for trajectory.tum (every scan's estimate, the search phase included) and "
        "report.json",
+       "output"},
+      {"overwrite", "", "", "replace the results of an earlier run in the output folder (refused without it)",
        "output"},
       {"snapshot_every", "K", "0",
        "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl "
@@ -105,6 +108,13 @@ int run_localize(int argc, char** argv) {
 
   const LocalizerOptions lo = localizer_options(o);
   if (!o.maybe("output")) throw Error("missing -o OUT (the output folder)");
+  // An earlier run's results are kept unless the user says to replace them.
+  for (const char* earlier : {"report.json", "trajectory.tum"}) {
+    if (!o.flag("overwrite") && fs::exists(fs::path(o.text("output")) / earlier)) {
+      throw Error(one_line(o.text("output")) + " holds an earlier run's results (" + earlier +
+                  "); pass --overwrite to replace them or choose another -o");
+    }
+  }
   StagedOutputFolder output(o.text("output"), {"trajectory.tum", "report.json", "snapshots"});
   const fs::path out_dir = output.staging();
   const std::string map_file = o.text("map");
