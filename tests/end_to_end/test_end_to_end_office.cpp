@@ -60,8 +60,8 @@ TEST(EndToEnd, OfficeFromPointCloudConverges) {
     r = run_cli(dir, "build-map --cloud " + cloud + trajectory + " --voxel 0.1 -o " + map);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.err.find("build-map: surface:"), std::string::npos) << r.err;
-    r = run_cli(
-        dir, "localize --map " + map + " --dataset " + route + " --init global --particles 20000 --seed 3 -o " + out);
+    r = run_cli(dir, "localize --map " + map + " --dataset " + route +
+                         " --init global --particles 20000 --seed 3 --overwrite -o " + out);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     r = run_cli(dir, "evaluate --estimate " + out + "/trajectory.tum --dataset " + route);
     ASSERT_EQ(r.exit_code, 0) << r.err;
