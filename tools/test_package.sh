@@ -15,6 +15,8 @@ work=${2:-$(mktemp -d)}
 rm -rf "$work" && mkdir -p "$work"
 work=$(realpath "$work")
 fail() { echo "test_package.sh: $*" >&2; exit 1; }
+# A command failing under set -e says where (a silent exit 1 in CI told nothing).
+trap 'echo "test_package.sh: line $LINENO failed: $BASH_COMMAND" >&2' ERR
 
 (cd "$work" && cpack -G DEB --config "$build/CPackConfig.cmake" -B "$work/pkgs" >"$work/cpack.log" 2>&1) ||
   { cat "$work/cpack.log" >&2; fail "cpack failed"; }
@@ -58,9 +60,12 @@ check_depends() {  # deb, binary path inside it
   local depends
   depends=$(dpkg-deb -f "$deb" Depends | tr ',' '\n' | sed 's/^ *//; s/[ (|].*//' | grep -v '^$')
   readelf -d "$root$bin" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p' >"$root.needed"
+  # The cache listed to a file first: awk leaving at its first match would end ldconfig with SIGPIPE, which
+  # pipefail turns into a failure (it did, now and then, in CI).
+  ldconfig -p >"$work/ldconfig.txt"
   for lib in $(cat "$root.needed"); do
     local path pkg
-    path=$(ldconfig -p | awk -v l="$lib" '$1 == l && /x86-64|AArch64/ {print $NF; exit}')
+    path=$(awk -v l="$lib" '$1 == l && /x86-64|AArch64/ {print $NF; exit}' "$work/ldconfig.txt")
     [ -n "$path" ] || fail "$bin needs $lib, which is not installed here"
     pkg=$(owner "$path") || fail "no package owns $path ($lib, loaded by $bin)"
     echo "$depends" | grep -qx "$pkg" || fail "$(basename "$deb") loads $lib from $pkg, which its Depends do not name"
