@@ -3,21 +3,16 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <thread>
 
+#include "tsdf_mcl/core/stopwatch.hpp"
 #include "tsdf_mcl/cpu/endpoint_avx2.hpp"
 #include "tsdf_mcl/cpu/endpoint_neon.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
 #include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-}  // namespace
+namespace {}  // namespace
 
 CpuEvaluator::CpuEvaluator(const TsdfMap& map, int threads, bool use_simd)
     : map_view_(map),
@@ -57,7 +52,7 @@ void CpuEvaluator::reserve(std::size_t particles, std::size_t points) {
 ParticleArrays CpuEvaluator::view(int set) { return ParticleArrays::over(sets_[set].data(), capacity_); }
 
 void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   points_.resize(3 * points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!points[i].allFinite()) throw Error("scan point " + std::to_string(i) + " is not finite");
@@ -66,7 +61,7 @@ void CpuEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
     points_[3 * i + 2] = points[i].z();
   }
   point_count_ = points.size();
-  timings_.upload_ms = ms_since(t0);
+  timings_.upload_ms = t0.ms();
 }
 
 void CpuEvaluator::rebuild_tables(const EndpointModel& model) {
@@ -81,7 +76,7 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
   model.validate();
   if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
   if (point_count_ == 0) throw Error("evaluate: no scan points set");
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   rebuild_tables(model);
   const ParticleArrays p = particles();
   const kernel::ModelConstants k(model);
@@ -111,7 +106,7 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
       }
     }
     const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
-    timings_.evaluate_ms = ms_since(t0);
+    timings_.evaluate_ms = t0.ms();
     return summary;
   }
 
@@ -137,7 +132,7 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
     p.log_weight[i] = exponent * (product ? acc : std::log(acc));
   }
   const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
-  timings_.evaluate_ms = ms_since(t0);
+  timings_.evaluate_ms = t0.ms();
   return summary;
 }
 

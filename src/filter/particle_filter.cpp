@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <Eigen/Eigenvalues>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "tsdf_mcl/core/stopwatch.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/filter/hypothesis_weighting.hpp"
@@ -15,9 +15,6 @@
 
 namespace tsdf_mcl {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // The constant-velocity model trusts the motion between two estimates only while both are this certain (m,
 // standard deviation of the dominant mode): looser than `converged`, so that a track still settling after a
@@ -764,7 +761,7 @@ double ParticleFilter::judge_fit(FilterStep& step) {
 
 FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
                                   const std::optional<Pose>& odometry, const ScanExtras& extras) {
-  const auto t_start = Clock::now();
+  const Stopwatch t_start;
   if (!initialized_) throw Error("the particle filter is not initialized");
   if (points.empty()) throw Error("empty scan: no points left for the sensor update");
   const bool use_odometry = params_.motion.type == MotionModelType::kOdometry;
@@ -804,13 +801,13 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     step.estimate = estimate_;
     step.state = state_;
     step.next_particles = count_;
-    step.timings.total_ms = ms_since(t_start);
+    step.timings.total_ms = t_start.ms();
     return step;
   }
   step.updated = true;
   const std::size_t n = count_;
 
-  auto t0 = Clock::now();
+  Stopwatch t0;
   if (has_update_) {
     MotionNoise noise = motion_noise(params_.motion, delta, time - last_time_);
     if (!ever_converged_) {
@@ -825,7 +822,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     }
     apply_motion(evaluator_.particles(), n, delta, noise, params_.seed, step_);
   }
-  step.timings.motion_ms = ms_since(t0);
+  step.timings.motion_ms = t0.ms();
 
   if (points.size() > points_capacity_) {
     points_capacity_ = points.size();
@@ -839,7 +836,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   step.timings.weight_gpu_ms = et.weight_gpu_ms;
   step.timings.reduce_gpu_ms = et.reduce_gpu_ms;
 
-  t0 = Clock::now();
+  t0 = Stopwatch();
   prepare_weights(n, step);
   const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
   weigh_hypotheses(n, points, step);
@@ -879,7 +876,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   }
   step.state = state_ = classify(step);
   step.estimate = estimate_;
-  step.timings.reduce_ms = ms_since(t0);
+  step.timings.reduce_ms = t0.ms();
 
   if (params_.motion.type == MotionModelType::kConstantVelocity) {
     // Only a localized track has a velocity; the jumps of a spread belief's estimate are not motion.
@@ -892,7 +889,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     }
   }
 
-  t0 = Clock::now();
+  t0 = Stopwatch();
   ++updates_since_resample_;
   bool resampled = false;
   if (updates_since_resample_ >= params_.resample_interval) {
@@ -929,7 +926,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     }
   }
   if (!resampled) std::copy_n(post_log_weight_.begin(), n, prior_log_weight_.begin());
-  step.timings.resample_ms = ms_since(t0);
+  step.timings.resample_ms = t0.ms();
   step.next_particles = count_;
 
   has_update_ = true;
@@ -937,7 +934,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   if (odometry) last_odometry_ = *odometry;
   last_estimate_pose_ = estimate_.pose;
   ++step_;
-  step.timings.total_ms = ms_since(t_start);
+  step.timings.total_ms = t_start.ms();
   return step;
 }
 

@@ -1,17 +1,14 @@
 #include "tsdf_mcl/filter/subset_first.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/stopwatch.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
 
 namespace tsdf_mcl {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 std::size_t refined_count(double share, std::size_t n) {
   return static_cast<std::size_t>(std::ceil(share * static_cast<double>(n)));
@@ -41,7 +38,7 @@ WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t
     if (timings) *timings = evaluator.last_timings();
     return summary;
   }
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   // First pass: k points spread over the scan (the preprocessed points are in space-filling-curve order), the
   // exponent scaled by m / k so the log-weights estimate the whole scan's.
   const std::size_t k = options_.points;
@@ -86,7 +83,7 @@ WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t
   sum.weight_invocations += second.weight_invocations;
   sum.reduce_invocations += second.reduce_invocations;
   const WeightSummary summary = reduce_weights(p, n, reference, fit_constants(model, points.size()));
-  sum.evaluate_ms = ms_since(t0);
+  sum.evaluate_ms = t0.ms();
   if (timings) *timings = sum;
   return summary;
 }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -13,6 +12,7 @@
 #include "compute_pipeline.hpp"
 #include "push_constants.hpp"
 #include "shader_interface.h"
+#include "tsdf_mcl/core/stopwatch.hpp"
 #include "tsdf_mcl/sensor/endpoint_kernel.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
@@ -33,9 +33,6 @@ const std::uint32_t kReduceSubgroupSpirv[] = {
 const std::uint32_t kReduceSharedSpirv[] = {
 #include "reduce_shared.inc"
 };
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr std::uint32_t kEndpointWorkgroup = 64;         // invocation per particle
 constexpr std::uint32_t kSubgroupLayoutWorkgroup = 256;  // subgroup per particle: 256 / subgroup size particles
@@ -498,7 +495,7 @@ void VulkanEvaluator::write_descriptor_sets() {
 }
 
 void VulkanEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!points[i].allFinite()) throw Error("scan point " + std::to_string(i) + " is not finite");
   }
@@ -513,7 +510,7 @@ void VulkanEvaluator::set_points(const std::vector<Eigen::Vector3f>& points) {
   }
   dst.flush();
   point_count_ = points.size();
-  timings_.upload_ms = ms_since(t0);
+  timings_.upload_ms = t0.ms();
 }
 
 void VulkanEvaluator::barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage,
@@ -529,7 +526,7 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   model.validate();
   if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
   if (point_count_ == 0) throw Error("evaluate: no scan points set");
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const gpu::ComputePipeline& endpoint = endpoint_pipeline(model, point_count_ <= uniform_point_capacity_);
   if (n == 0) return {};
   if (model.interpolation == Interpolation::kNearest && !(table_model_ && kernel::same_table(model, *table_model_))) {
@@ -639,7 +636,7 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   for (int a = 0; a < 3; ++a) total.position[a] = r[2 + a];
   for (int a = 0; a < 4; ++a) total.quaternion[a] = r[5 + a];
   total.fit_sum = r[9];
-  timings_.evaluate_ms = ms_since(t0);
+  timings_.evaluate_ms = t0.ms();
 
   if (queries_) {
     std::uint64_t stamps[kQueries];

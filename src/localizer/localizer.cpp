@@ -1,17 +1,14 @@
 #include "tsdf_mcl/localizer/localizer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
+#include "tsdf_mcl/core/stopwatch.hpp"
 
 namespace tsdf_mcl {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr double kImuKeep = 2.0;             // s of IMU samples kept before the latest one
 constexpr std::size_t kUpdateTimes = 10000;  // updates the summary's median is taken over (the latest)
@@ -41,13 +38,13 @@ void Localizer::add_imu(const ImuSample& sample) {
 void Localizer::reset_to(const Pose& pose) { reset_to(pose, options_.filter.local_init); }
 
 void Localizer::reset_to(const Pose& pose, const LocalInitSpread& spread) {
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   filter_->initialize_local(pose, spread);
   pending_global_ = false;
   InitializationRecord r;
   r.global = false;
   r.particles = options_.filter.initial_particles;
-  r.ms = ms_since(t0);
+  r.ms = t0.ms();
   initialization_ = r;
   converged_since_time_.reset();
   converged_since_index_.reset();
@@ -56,7 +53,7 @@ void Localizer::reset_to(const Pose& pose, const LocalInitSpread& spread) {
 void Localizer::reset_global() { pending_global_ = true; }
 
 void Localizer::initialize(const std::vector<Eigen::Vector3f>* points, const ScanExtras& extras) {
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   filter_->initialize_global(*points, extras);
   pending_global_ = false;
   InitializationRecord r;
@@ -66,7 +63,7 @@ void Localizer::initialize(const std::vector<Eigen::Vector3f>* points, const Sca
   r.gravity_source = extras.imu_up ? "imu" : "scan";
   r.candidates = filter_->gravity_candidates();
   r.free_space_voxels = filter_->free_space_voxels();
-  r.ms = ms_since(t0);
+  r.ms = t0.ms();
   initialization_ = r;
   converged_since_time_.reset();
   converged_since_index_.reset();
@@ -77,10 +74,10 @@ const ScanRecord& Localizer::process(double time, const std::vector<Eigen::Vecto
   record_ = ScanRecord{};
   record_.time = time;
   record_.index = scans_;
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const std::vector<Eigen::Vector3f>& selected =
       preprocessor_.process(points, scan_id.value_or(scans_), &record_.points);
-  record_.preprocess_ms = ms_since(t0);
+  record_.preprocess_ms = t0.ms();
   if (selected.empty()) {
     char buf[160];
     std::snprintf(buf, sizeof(buf), "none of %zu points lies within laser_min_range %.2f m .. laser_max_range %.2f m",

@@ -1,5 +1,4 @@
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +16,7 @@
 #include "localize_parameters.hpp"
 #include "localize_progress.hpp"
 #include "progress.hpp"
+#include "tsdf_mcl/core/stopwatch.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/one_line.hpp"
@@ -34,10 +34,7 @@ namespace tsdf_mcl::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 constexpr double kImuLookAhead = 0.1;  // s: the window imu_up_at averages over around a scan
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // The command's own inputs, then the parameters it shares with every frontend (localize_parameters.hpp).
 std::vector<OptionSpec> localize_options() {
@@ -186,13 +183,13 @@ int run_localize(int argc, char** argv) {
   ReportWriter report_writer(out_dir / "scans.jsonl");
   std::size_t dropped_total = 0;
   LocalizeNarrator narrator(progress, lo, scans.size());
-  const auto t_run = Clock::now();
+  const Stopwatch t_run;
   for (std::size_t k = 0; k < scans.size(); ++k) {
     const std::size_t idx = scans[k];
-    const auto t0 = Clock::now();
+    const Stopwatch t0;
     std::size_t dropped = 0;
     const PointCloud cloud = dataset.load_scan(idx, &dropped);
-    const double load_ms = ms_since(t0);
+    const double load_ms = t0.ms();
     dropped_total += dropped;
     const std::optional<Pose> odometry =
         dataset.has_odometry() ? std::optional<Pose>(dataset.odometry(idx)) : std::nullopt;
@@ -226,7 +223,7 @@ int run_localize(int argc, char** argv) {
 
     narrator.scan(k, idx, *record, dropped);
   }
-  const double run_s = ms_since(t_run) / 1000.0;
+  const double run_s = t_run.ms() / 1000.0;
 
   write_tum(out_dir / "trajectory.tum", trajectory);
   const RunSummary summary = localizer.summary();
