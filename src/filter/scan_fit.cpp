@@ -39,6 +39,7 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
   const float voxel = map.voxel_size();
   const auto near_limit = static_cast<std::int32_t>(std::ceil(max_distance / view.quant_step));
   const auto inside_limit = static_cast<std::int32_t>(std::floor(-2.0f * voxel / view.quant_step));
+  const auto front_rise = static_cast<std::int32_t>(std::ceil(0.4f * voxel / view.quant_step));
   const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
   float rm[9];
   kernel::rotation_matrix(q.w(), q.x(), q.y(), q.z(), rm);
@@ -60,40 +61,66 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     // Grid units per metre along the ray, so that `s` below counts metres.
     const Eigen::Vector3f direction =
         length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
-    // Whether the ray met the inside of a surface (a negative distance) on its way: then an endpoint in unknown
-    // space lies behind a surface the map has, and is a miss, not unobserved.
+    // The inside of a surface (a negative distance) at `s` metres along the ray was entered from the surface's
+    // front if the distance one voxel nearer the sensor is larger (the distance falls along the ray). From its back
+    // it grows along the ray: the far face of a wall the map saw from the other side only, its band reaching through
+    // the wall into a room the mapping run never entered. A LiDAR never sees a face from behind, so only a front
+    // entry is evidence: at a wrong pose a ray passing into a wall crosses the face the map holds.
+    // Over three voxels and by more than the map's noise: a wall's far side holds a flat plateau of its near face's
+    // band, where neighbouring voxels differ by noise either way.
+    const auto entered_from_front = [&](const Eigen::Vector3f& at, std::int32_t v) {
+      const std::int32_t nearer = value_at(at - 3.0f * voxel * direction);
+      return nearer != TsdfMap::kUnknownValue && nearer > v + front_rise;
+    };
+    // Whether the ray met the inside of a surface on its way: then an endpoint in unknown space lies behind a
+    // surface the map has, and is a miss, not unobserved.
     bool met_surface = false;
     bool through = false;
     if (length > end_margin) {
       // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
       // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
       const float stop = length - end_margin;
+      bool inside = false;      // in a negative region since the last sample
+      bool from_front = false;  // ... which the ray entered from the front
       for (float s = 0.0f; s < stop;) {
-        const std::int32_t v = value_at(origin + s * direction);
-        if (v == TsdfMap::kUnknownValue) {
-          s += voxel;
+        const Eigen::Vector3f at = origin + s * direction;
+        const std::int32_t v = value_at(at);
+        if (v == TsdfMap::kUnknownValue || v >= 0) {
+          inside = false;
+          s += v == TsdfMap::kUnknownValue ? voxel : std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
           continue;
         }
-        met_surface = met_surface || v < 0;
-        if (v <= inside_limit) {
-          through = true;
-          break;
+        if (!inside) from_front = entered_from_front(at, v);
+        inside = true;
+        if (from_front) {
+          met_surface = true;
+          if (v <= inside_limit) {
+            through = true;
+            break;
+          }
         }
-        s += std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
+        s += voxel;
       }
     }
     if (through) ++fit.see_through;
-    bool evidence = at_end != TsdfMap::kUnknownValue || through;
-    if (!evidence) {
-      // The last end_margin before the endpoint, voxel by voxel backwards: a surface just in front of it.
+    bool evidence = through;
+    if (at_end != TsdfMap::kUnknownValue) {
+      // An endpoint inside a surface reached from its back is unobserved (see above), however near the face: it
+      // lies on the far face of a wall, which the map does not hold. One in free space is evidence.
+      evidence = evidence || met_surface || at_end >= 0 || length <= 3.0f * voxel || entered_from_front(end, at_end);
+      if (!evidence) ++fit.back_faces;
+    } else {
+      // The last end_margin before the endpoint, voxel by voxel backwards: a surface just in front of it, entered
+      // from its front.
       for (float s = voxel; s <= end_margin + 0.5f * voxel && s < length; s += voxel) {
-        const std::int32_t v = value_at(end - s * direction);
+        const Eigen::Vector3f at = end - s * direction;
+        const std::int32_t v = value_at(at);
         if (v != TsdfMap::kUnknownValue) {
-          met_surface = met_surface || v < 0;
+          met_surface = met_surface || (v < 0 && entered_from_front(at, v));
           break;
         }
       }
-      evidence = met_surface;
+      evidence = evidence || met_surface;
     }
     if (!evidence) continue;
     ++fit.observed;

@@ -13,6 +13,16 @@
 // a block without any band voxel that a ray crosses becomes a free block as a whole. That is free-space carving at
 // block resolution away from surfaces: it costs an eighth of the steps, and it fills the gaps that diverging rays
 // leave between them far from the sensor (no surface was seen there, or the block would be a band block).
+// Except at the edge of what the scans saw: a crossed block beside a block no ray reached (a room the mapping run
+// saw only through its door, below a floor seen from above) may hold a surface no ray met -- the floor of that room
+// under rays that passed just above it. Calling all of it free would make the map claim there is nothing where it
+// never looked. A third pass carves such frontier blocks voxel by voxel: what no ray crossed stays unknown.
+//
+// Projective distances overestimate where rays graze a surface: a voxel 5 cm above a floor seen at 7 degrees from
+// afar lies 0.4 m before the hit along the ray, so it reads +truncation ("nothing near") although the floor is 5 cm
+// away. A robot later standing on that floor, its points a few cm off it, would find them contradicting the map.
+// A signed distance changes by at most the distance moved (it is 1-Lipschitz), so the free side is tightened:
+// d(v) <= d(n) + |v - n| over the 26 neighbours, repeated until nothing changes (at most truncation / voxel sweeps).
 //
 // Parallelism without locks or atomics: space is cut into slabs of kSlabBlocks blocks across the box's longest
 // axis, dealt out to the threads in turn. Each thread walks only the parts of every ray inside its own slabs and
@@ -85,6 +95,7 @@ class Accumulator {
         dims_(box.dims_blocks()),
         owners_(owners),
         slot_(box.coarse_index().size(), kNoBlock),
+        frontier_(box.coarse_index().size(), 0),
         band_(static_cast<std::size_t>(owners)) {
     dims_.maxCoeff(&slab_axis_);
     slab_count_ = (dims_[slab_axis_] + kSlabBlocks - 1) / kSlabBlocks;
@@ -123,13 +134,16 @@ class Accumulator {
     }
 
     // The free space of the same ray in front of its band: block by block, voxel by voxel inside band blocks.
-    void carve(const Vector3f& origin, const Vector3f& u, float range) {
+    // frontier_pass: voxel by voxel inside the frontier blocks only (mark_frontier), nothing else.
+    void carve(const Vector3f& origin, const Vector3f& u, float range, bool frontier_pass) {
       const float trunc = acc_.truncation_, voxel = acc_.voxel_;
       if (range <= trunc) return;
       owned_parts(origin, u, 0.0f, range - trunc + slack(), [&](float ta, float tb) {
         walk(origin, u, ta, tb, voxel, B, [&](const Vector3i& block, float t_in, float t_out) {
           if (!select(block)) return;
-          std::uint32_t& slot = acc_.slot_[static_cast<std::size_t>(cell_)];
+          const auto cell = static_cast<std::size_t>(cell_);
+          if (frontier_pass != (acc_.frontier_[cell] != 0)) return;
+          std::uint32_t& slot = acc_.slot_[cell];
           if (slot == kNoBlock || slot == kCarvedBlock) {
             slot = kCarvedBlock;
             return;
@@ -206,37 +220,163 @@ class Accumulator {
   };
   static_assert(B == 8, "block_of() and local() shift and mask by 3 bits");
 
-  TsdfMap to_map() const {
+  // After the carving pass: every carved block with a face neighbour no ray reached (or outside the box) becomes
+  // a frontier block, held voxel by voxel (all unknown until the frontier pass carves it). Returns how many.
+  std::size_t mark_frontier() {
+    std::vector<std::size_t> frontier;
+    for (std::size_t cell = 0; cell < slot_.size(); ++cell) {
+      if (slot_[cell] != kCarvedBlock) continue;
+      const Vector3i c = cell_coordinates(cell);
+      bool beside_unknown = false;
+      for (int axis = 0; axis < 3 && !beside_unknown; ++axis) {
+        for (int side : {-1, 1}) {
+          Vector3i n = c;
+          n[axis] += side;
+          if (n[axis] < 0 || n[axis] >= dims_[axis] || slot_[cell_index(n)] == kNoBlock) beside_unknown = true;
+        }
+      }
+      if (beside_unknown) frontier.push_back(cell);
+    }
+    for (std::size_t cell : frontier) {
+      budget_.charge(sizeof(BandBlock) + TsdfMap::kWordsPerBlock * sizeof(std::uint32_t), "blocks at the frontier");
+      auto& pool = band_[static_cast<std::size_t>((cell_coordinates(cell)[slab_axis_] / kSlabBlocks) % owners_)];
+      slot_[cell] = static_cast<std::uint32_t>(pool.size());
+      pool.emplace_back();
+      frontier_[cell] = 1;
+    }
+    return frontier.size();
+  }
+
+  TsdfMap to_map() {
+    // The band blocks' distances (NaN: unknown), tightened on the free side (see the top of this file).
+    std::vector<std::size_t> cells;  // band block k lies in cell cells[k]
+    std::vector<std::int64_t> band_of_cell(slot_.size(), -1);
+    for (std::size_t cell = 0; cell < slot_.size(); ++cell) {
+      if (slot_[cell] == kNoBlock || slot_[cell] == kCarvedBlock) continue;
+      band_of_cell[cell] = static_cast<std::int64_t>(cells.size());
+      cells.push_back(cell);
+    }
+    using Distances = std::array<float, kVoxels>;
+    budget_.charge(2 * cells.size() * sizeof(Distances), "distances of blocks near surfaces");
+    std::vector<Distances> distances(cells.size());
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      const BandBlock& b = band_block(cells[k]);
+      for (std::size_t l = 0; l < kVoxels; ++l) {
+        distances[k][l] = b[l].w > 0.0f ? b[l].wd / b[l].w : std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+    tighten_free_side(cells, band_of_cell, distances);
+
     TsdfMap map(voxel_, truncation_, min_block_, dims_);
     std::array<std::int16_t, kVoxels> values{};
     for (std::size_t cell = 0; cell < slot_.size(); ++cell) {
-      const std::uint32_t slot = slot_[cell];
-      if (slot == kNoBlock) continue;
-      const auto c = static_cast<std::int64_t>(cell);
-      const Vector3i block =
-          min_block_ + Vector3i(static_cast<int>(c % dims_.x()), static_cast<int>((c / dims_.x()) % dims_.y()),
-                                static_cast<int>(c / (static_cast<std::int64_t>(dims_.x()) * dims_.y())));
-      if (slot == kCarvedBlock) {
-        map.mark_block_free(block);
-        continue;
-      }
-      const BandBlock& b =
-          band_[static_cast<std::size_t>(((block - min_block_)[slab_axis_] / kSlabBlocks) % owners_)][slot];
+      if (slot_[cell] == kCarvedBlock) map.mark_block_free(min_block_ + cell_coordinates(cell));
+    }
+    for (std::size_t k = 0; k < cells.size(); ++k) {
       for (std::size_t l = 0; l < kVoxels; ++l) {
-        values[l] = b[l].w > 0.0f ? map.quantize(b[l].wd / b[l].w) : TsdfMap::kUnknownValue;
+        const float d = distances[k][l];
+        values[l] = std::isnan(d) ? TsdfMap::kUnknownValue : map.quantize(d);
       }
-      map.set_block(block, values);
+      map.set_block(min_block_ + cell_coordinates(cells[k]), values);
     }
     return map;
   }
 
  private:
+  Vector3i cell_coordinates(std::size_t cell) const {
+    const auto c = static_cast<std::int64_t>(cell);
+    return {static_cast<int>(c % dims_.x()), static_cast<int>((c / dims_.x()) % dims_.y()),
+            static_cast<int>(c / (static_cast<std::int64_t>(dims_.x()) * dims_.y()))};
+  }
+  std::size_t cell_index(const Vector3i& c) const {
+    return static_cast<std::size_t>(c.x() + static_cast<std::int64_t>(dims_.x()) *
+                                                (c.y() + static_cast<std::int64_t>(dims_.y()) * c.z()));
+  }
+  const BandBlock& band_block(std::size_t cell) const {
+    return band_[static_cast<std::size_t>((cell_coordinates(cell)[slab_axis_] / kSlabBlocks) % owners_)][slot_[cell]];
+  }
+
+  // d(v) = min(d(v), d(n) + |v - n|) for every known voxel v on the free side (d > 0) and its known free-side
+  // neighbours n (d >= 0; free blocks count as +truncation and cannot lower anything), in Jacobi sweeps (each reads the
+  // previous one's values: the result does not depend on the thread count) until no value changes by more than a
+  // thousandth of a voxel. A change spreads one voxel per sweep and stops within the truncation.
+  template <typename Distances>
+  void tighten_free_side(const std::vector<std::size_t>& cells, const std::vector<std::int64_t>& band_of_cell,
+                         std::vector<Distances>& distances) const {
+    constexpr int P = B + 2;  // a block with a one-voxel rim from its neighbours
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    std::vector<Distances> next(distances.size());
+    const int sweeps = static_cast<int>(std::ceil(truncation_ / voxel_)) + 1;
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
+      bool changed = false;
+#pragma omp parallel for schedule(dynamic, 16) reduction(|| : changed)
+      for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(cells.size()); ++kk) {
+        const auto k = static_cast<std::size_t>(kk);
+        const Vector3i c = cell_coordinates(cells[k]);
+        std::array<float, P * P * P> rim;
+        for (int z = 0; z < P; ++z) {
+          for (int y = 0; y < P; ++y) {
+            for (int x = 0; x < P; ++x) {
+              const Vector3i v(x - 1, y - 1, z - 1);  // voxel relative to the block's first one
+              const Vector3i offset(v.x() < 0 ? -1 : v.x() >= B, v.y() < 0 ? -1 : v.y() >= B,
+                                    v.z() < 0 ? -1 : v.z() >= B);
+              const Vector3i n = c + offset;
+              float value = nan;
+              if ((n.array() >= 0).all() && (n.array() < dims_.array()).all()) {
+                const std::size_t cell =
+                    static_cast<std::size_t>(n.x() + static_cast<std::int64_t>(dims_.x()) *
+                                                         (n.y() + static_cast<std::int64_t>(dims_.y()) * n.z()));
+                const Vector3i l = v - B * offset;
+                if (band_of_cell[cell] >= 0) {
+                  value = distances[static_cast<std::size_t>(band_of_cell[cell])]
+                                   [static_cast<std::size_t>(l.x() + B * (l.y() + B * l.z()))];
+                } else if (slot_[cell] == kCarvedBlock) {
+                  value = truncation_;
+                }
+              }
+              rim[static_cast<std::size_t>(x + P * (y + P * z))] = value;
+            }
+          }
+        }
+        for (int z = 0; z < B; ++z) {
+          for (int y = 0; y < B; ++y) {
+            for (int x = 0; x < B; ++x) {
+              const std::size_t l = static_cast<std::size_t>(x + B * (y + B * z));
+              float d = distances[k][l];
+              if (d > 0.0f) {
+                const float before = d;
+                for (int dz = -1; dz <= 1; ++dz) {
+                  for (int dy = -1; dy <= 1; ++dy) {
+                    for (int dx = -1; dx <= 1; ++dx) {
+                      const float n =
+                          rim[static_cast<std::size_t>((x + 1 + dx) + P * ((y + 1 + dy) + P * (z + 1 + dz)))];
+                      const int steps = dx * dx + dy * dy + dz * dz;
+                      // Free-side neighbours only: a negative one is behind the surface, and pulling a free voxel
+                      // below zero would move the surface.
+                      if (steps == 0 || !(n >= 0.0f)) continue;
+                      d = std::min(d, n + voxel_ * std::sqrt(static_cast<float>(steps)));
+                    }
+                  }
+                }
+                if (before - d > 1e-3f * voxel_) changed = true;
+              }
+              next[k][l] = d;
+            }
+          }
+        }
+      }
+      distances.swap(next);
+      if (!changed) break;
+    }
+  }
+
   BuildBudget& budget_;
   float voxel_, truncation_;
   Vector3i min_block_, dims_;
   int owners_;  // slab s belongs to owner s % owners_
   int slab_axis_ = 0, slab_count_ = 0;
   std::vector<std::uint32_t> slot_;          // kNoBlock, kCarvedBlock or a band block number in the owner's pool
+  std::vector<std::uint8_t> frontier_;       // 1: a frontier block (mark_frontier), carved voxel by voxel
   std::vector<std::deque<BandBlock>> band_;  // deques: blocks never move once allocated
 };
 
@@ -270,7 +410,7 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
   validate(dataset, scans, options);
   const float vs = options.voxel_size;
   const float trunc = options.truncation;
-  const std::size_t steps = 3 * scans.size();
+  const std::size_t steps = 4 * scans.size();
   std::size_t done = 0;
   auto report = [&] {
     ++done;
@@ -300,43 +440,50 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
   const Vector3f box_lo = lo.array() - border, box_hi = hi.array() + border;
   BuildBudget budget(options.max_memory_bytes);
   // Per cell of the box: the accumulator's slot, the box's and the result's coarse index entries.
-  budget.charge(TsdfMap::box_cells(vs, trunc, box_lo, box_hi) * 3 * sizeof(std::uint32_t),
+  budget.charge(TsdfMap::box_cells(vs, trunc, box_lo, box_hi) * (3 * sizeof(std::uint32_t) + 1),
                 "the observed box in blocks");
   const TsdfMap box = TsdfMap::covering(vs, trunc, box_lo, box_hi);
   const int threads = std::max(1, omp_get_max_threads());
   Accumulator acc(box, threads, budget);
 
-  // Pass 1: the truncation band around every point. Pass 2: free space in front of the band.
-  // A thread's carving depends only on the band blocks it owns itself, so the threads never wait for one another:
-  // each loads the scans on its own (cheap next to the integration) and runs through both passes at its own pace.
-  std::exception_ptr failure;
+  // Pass 1: the truncation band around every point. Pass 2: free space in front of the band. Pass 3: the frontier
+  // blocks' free space, voxel by voxel (after all of pass 2: which blocks are frontier depends on every thread's).
+  // Within passes 1 and 2 a thread's carving depends only on the band blocks it owns itself, so the threads never
+  // wait for one another: each loads the scans on its own (cheap next to the integration) and runs at its own pace.
+  enum class Pass { kBand, kCarve, kFrontier };
+  const auto run = [&](std::initializer_list<Pass> passes) {
+    std::exception_ptr failure;
 #pragma omp parallel num_threads(threads)
-  {
-    const int thread = omp_get_thread_num();
-    Accumulator::Writer writer(acc, thread, omp_get_num_threads());
-    try {
-      for (const bool band_pass : {true, false}) {
-        for (std::size_t i : scans) {
-          const WorldScan scan = load_world_scan(dataset, i, options);
-          for (const Vector3f& p : scan.points) {
-            const Vector3f ray = p - scan.origin;
-            const float range = ray.norm();
-            if (band_pass) {
-              writer.band(scan.origin, ray / range, range);
-            } else {
-              writer.carve(scan.origin, ray / range, range);
+    {
+      const int thread = omp_get_thread_num();
+      Accumulator::Writer writer(acc, thread, omp_get_num_threads());
+      try {
+        for (const Pass pass : passes) {
+          for (std::size_t i : scans) {
+            const WorldScan scan = load_world_scan(dataset, i, options);
+            for (const Vector3f& p : scan.points) {
+              const Vector3f ray = p - scan.origin;
+              const float range = ray.norm();
+              if (pass == Pass::kBand) {
+                writer.band(scan.origin, ray / range, range);
+              } else {
+                writer.carve(scan.origin, ray / range, range, pass == Pass::kFrontier);
+              }
             }
+            // Thread 0 is the calling thread: the callback runs where the caller expects it.
+            if (thread == 0 && done + 1 < steps) report();
           }
-          // Thread 0 is the calling thread: the callback runs where the caller expects it.
-          if (thread == 0 && done + 1 < steps) report();
         }
-      }
-    } catch (...) {
+      } catch (...) {
 #pragma omp critical(scan_integration_failure)
-      if (!failure) failure = std::current_exception();
+        if (!failure) failure = std::current_exception();
+      }
     }
-  }
-  if (failure) std::rethrow_exception(failure);
+    if (failure) std::rethrow_exception(failure);
+  };
+  run({Pass::kBand, Pass::kCarve});
+  if (acc.mark_frontier() > 0) run({Pass::kFrontier});
+  done = steps - 1;  // the last step: however many scans the frontier pass walked
   report();
 
   TsdfMap map = acc.to_map();

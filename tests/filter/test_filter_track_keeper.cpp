@@ -63,6 +63,45 @@ TEST(MapEvidence, UnobservedOnlyWhereTheMapNeverLooked) {
   EXPECT_DOUBLE_EQ(there.inlier_ratio(), 0.0);
 }
 
+// A wall whose west face (x = 0) the mapping run saw from the west only, as scan integration leaves it: observed
+// free space west of it, its band reaching 0.3 m through it (the distance falling eastwards), unknown beyond.
+TsdfMap wall_seen_from_the_west() {
+  TsdfMap map = TsdfMap::covering(0.05f, 0.3f, Eigen::Vector3f(-2.0f, -1.0f, -1.0f), Eigen::Vector3f(2.0f, 1.0f, 1.0f));
+  for (int x = -40; x <= 6; ++x) {
+    for (int y = -20; y <= 20; ++y) {
+      for (int z = -20; z <= 20; ++z) {
+        const float d = std::min(-0.05f * static_cast<float>(x), 0.3f);
+        map.set_distance(Eigen::Vector3i(x, y, z), d);
+      }
+    }
+  }
+  return map;
+}
+
+TEST(MapEvidence, TheFarFaceOfAWallSeenFromBehindIsUnobserved) {
+  const TsdfMap map = wall_seen_from_the_west();
+  const Pose west = pose_from_xyz_rpy(-1.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+  const Pose east = pose_from_xyz_rpy(1.0, 0.0, 0.0, 0.0, 0.0, M_PI);  // facing west, in unmapped space
+  std::vector<std::uint8_t> observed;
+  // From the west: the face itself is an inlier; points behind it are misses (the ray crossed the face the map
+  // holds), however near.
+  const RayFit front = ray_fit(
+      map, west,
+      {Eigen::Vector3f(0.98f, 0.0f, 0.0f), Eigen::Vector3f(1.1f, 0.0f, 0.0f), Eigen::Vector3f(1.25f, 0.0f, 0.0f)}, 0.2f,
+      0.4f, &observed);
+  EXPECT_EQ(observed, (std::vector<std::uint8_t>{1, 1, 1}));
+  EXPECT_EQ(front.inliers, 2u);
+  EXPECT_EQ(front.back_faces, 0u);
+  // From the east, the wall's east face at x = 0.2 (its distance -0.2, less than the band) and a point 0.1 m into
+  // it: the distance grows towards the sensor, the map holds no face turned to it. Unobserved, neither inlier nor
+  // miss.
+  const RayFit back =
+      ray_fit(map, east, {Eigen::Vector3f(0.8f, 0.0f, 0.0f), Eigen::Vector3f(0.9f, 0.0f, 0.0f)}, 0.2f, 0.4f, &observed);
+  EXPECT_EQ(observed, (std::vector<std::uint8_t>{0, 0}));
+  EXPECT_EQ(back.observed, 0u);
+  EXPECT_EQ(back.back_faces, 2u);
+}
+
 TEST(PairedEvidence, CountsOnlyPointsObservedUnderBothPoses) {
   const std::vector<double> a = {-1.0, -1.0, -5.0, -9.0, 0.0};
   const std::vector<double> b = {-2.0, -1.0, -1.0, 0.0, -9.0};

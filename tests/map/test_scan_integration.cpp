@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
@@ -68,7 +69,98 @@ void write_room_dataset(const std::filesystem::path& dir) {
   writer.close();
 }
 
+// One scan from `sensor` (world frame, no rotation) with a ray along each of `directions` (unit), ending where
+// `hit` says (nothing where it returns no point).
+template <typename Hit>
+void write_one_scan(const std::filesystem::path& dir, const Vector3d& sensor, const std::vector<Vector3d>& directions,
+                    Hit&& hit) {
+  tsdf_mcl::DatasetWriter writer(dir);
+  tsdf_mcl::PointCloud cloud;
+  for (const Vector3d& u : directions) {
+    if (const std::optional<Vector3d> p = hit(u)) cloud.points.push_back((*p - sensor).cast<float>());
+  }
+  Pose pose = Pose::Identity();
+  pose.translation() = sensor;
+  writer.add(0.0, cloud, pose, std::nullopt);
+  writer.close();
+}
+
 }  // namespace
+
+// A floor seen only from afar, every ray at 2.5 to 6 degrees below the horizon: along such a ray a voxel 5 cm above
+// the floor lies more than the truncation before the hit, so its projective distance reads "nothing near". A
+// signed distance changes by at most the distance moved: the map's must say the floor is no farther than it is.
+TEST(ScanIntegration, AFloorSeenAtGrazingAnglesIsNearTheVoxelsAboveIt) {
+  tsdf_mcl::test::TempDir dir;
+  const Vector3d sensor(0.0, 0.0, 0.5);
+  std::vector<Vector3d> directions;
+  for (double elevation = -6.0; elevation <= -2.5; elevation += 0.05) {
+    for (double azimuth = -20.0; azimuth <= 20.0; azimuth += 0.1) {
+      const double e = elevation * M_PI / 180.0, a = azimuth * M_PI / 180.0;
+      directions.emplace_back(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+    }
+  }
+  write_one_scan(dir.path(), sensor, directions,
+                 [&](const Vector3d& u) -> std::optional<Vector3d> { return sensor + (-sensor.z() / u.z()) * u; });
+  ScanMapOptions options;
+  options.voxel_size = 0.05f;
+  options.truncation = 0.3f;
+  const TsdfMap map = tsdf_mcl::build_map_from_scans(Dataset::open(dir.path()), {0}, options);
+  std::size_t checked = 0;
+  for (double x = 6.0; x <= 9.0; x += 0.25) {
+    const auto floor = map.nearest(Vector3f(static_cast<float>(x), 0.0f, 0.0f));
+    ASSERT_TRUE(floor.known) << x;
+    // The floor's own voxel reads a few cm: grazing rays through its upper half end farther on (a bias the
+    // projective distance keeps); what must not happen is the voxels above reading "nothing near".
+    EXPECT_LT(std::abs(floor.distance), 0.15f) << x;
+    for (const double z : {0.05, 0.1, 0.15}) {
+      const auto above = map.nearest(Vector3f(static_cast<float>(x), 0.0f, static_cast<float>(z)));
+      if (!above.known) continue;
+      ++checked;
+      EXPECT_GT(above.distance, 0.0f) << x << " " << z;
+      EXPECT_LE(above.distance, floor.distance + z + 0.01) << x << " " << z << ": the floor lies " << z << " m below";
+    }
+  }
+  EXPECT_GT(checked, 20u);
+}
+
+// Rays that pass above a floor no ray ever reached (a room seen only through its door, here a sensor whose rays
+// all point level or up) prove the voxels they cross free, not the rest of their blocks: the floor's voxels stay
+// unknown rather than being claimed free space, while the space the rays crossed is free.
+TEST(ScanIntegration, AFloorNoRayReachedStaysUnknownUnderCrossedSpace) {
+  tsdf_mcl::test::TempDir dir;
+  const Vector3d sensor(0.0, 0.0, 0.2);
+  std::vector<Vector3d> directions;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {  // the upper half of a Fibonacci sphere
+    const double z = (i + 0.5) / n;
+    const double r = std::sqrt(1.0 - z * z), phi = i * 2.399963229728653;
+    directions.emplace_back(r * std::cos(phi), r * std::sin(phi), z);
+  }
+  // A box room 8 x 8 m, its ceiling at 2.5 m (the floor, at -1 m, is below every ray).
+  write_one_scan(dir.path(), sensor, directions, [&](const Vector3d& u) -> std::optional<Vector3d> {
+    double t = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 2; ++a) {
+      if (std::abs(u[a]) > 1e-12) t = std::min(t, (4.0 * (u[a] > 0 ? 1 : -1) - sensor[a]) / u[a]);
+    }
+    if (u.z() > 1e-12) t = std::min(t, (2.5 - sensor.z()) / u.z());
+    return sensor + t * u;
+  });
+  ScanMapOptions options;
+  options.voxel_size = 0.05f;
+  options.truncation = 0.3f;
+  const TsdfMap map = tsdf_mcl::build_map_from_scans(Dataset::open(dir.path()), {0}, options);
+  for (const double x : {-2.0, -1.0, 1.0, 2.0}) {
+    for (const double y : {-2.0, 1.5}) {
+      const auto crossed = map.nearest(Vector3f(static_cast<float>(x), static_cast<float>(y), 0.25f));
+      ASSERT_TRUE(crossed.known) << x << " " << y;
+      EXPECT_GT(crossed.distance, 0.0f);
+      EXPECT_FALSE(map.nearest(Vector3f(static_cast<float>(x), static_cast<float>(y), 0.0f)).known)
+          << x << " " << y << ": no ray came below 0.2 m";
+    }
+  }
+  EXPECT_GT(map.stats().free_blocks, 50u) << "inside the seen space, whole blocks are still free";
+}
 
 TEST(ScanIntegration, BoxRoomDistancesFreeSpaceAndUnknownOutside) {
   tsdf_mcl::test::TempDir dir;
@@ -82,7 +174,7 @@ TEST(ScanIntegration, BoxRoomDistancesFreeSpaceAndUnknownOutside) {
   const TsdfMap map = tsdf_mcl::build_map_from_scans(dataset, {0, 1, 2}, options,
                                                      [&](std::size_t done, std::size_t) { calls.push_back(done); });
   ASSERT_FALSE(calls.empty());
-  EXPECT_EQ(calls.back(), 9u);  // three passes over three scans
+  EXPECT_EQ(calls.back(), 12u);  // four passes over three scans
 
   const float trunc = options.truncation;
   std::size_t near_wall = 0, behind_wall = 0;

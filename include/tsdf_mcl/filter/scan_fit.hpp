@@ -27,12 +27,15 @@ double inlier_ratio(const TsdfMap& map, const Pose& world_T_sensor, const std::v
 // sentinel) after its ray crossed only free or unknown space says nothing about the pose: a room the mapping run
 // skipped, the world beyond the map's edge. It is `unobserved`. An endpoint in unknown space behind a surface
 // the ray met on its way (a negative distance: the inside of a wall, which a TSDF leaves unknown beyond its
-// band, or the world outside an outer wall) is evidence: a miss.
+// band, or the world outside an outer wall) is evidence: a miss. So is an endpoint inside a surface, unless the
+// ray reached it from the surface's back (the distance falls towards the sensor: the far face of a wall the map
+// saw from the other side only, its band reaching through the wall): unobserved, a `back_face`.
 struct RayFit {
   std::size_t points = 0;
   std::size_t observed = 0;     // points with map evidence (everything but the unobserved ones)
   std::size_t inliers = 0;      // endpoint within max_distance of a surface
   std::size_t see_through = 0;  // the ray entered the inside of a surface well before its endpoint
+  std::size_t back_faces = 0;   // unobserved: the endpoint lies on a face the map saw from behind only
   // Share of the points with map evidence that are inliers (0 without any).
   double inlier_ratio() const { return observed ? static_cast<double>(inliers) / static_cast<double>(observed) : 0.0; }
   // Share of all points that are inliers: what a pose explains of the whole scan.
