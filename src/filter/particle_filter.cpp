@@ -498,19 +498,7 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   group_share_ = shares;
   h = std::move(sorted);
 
-  const Hypothesis& top = h.front();
-  const PoseEstimateOptions& o = params_.estimate;
-  if (!o.best_particle) estimate_.pose = top.pose;
-  estimate_.covariance = top.covariance;
-  estimate_.mode_weight = top.weight;
-  estimate_.mode_particles = top.particles;
-  estimate_.std_position = top.std_position;
-  estimate_.std_rotation = top.std_rotation;
-  estimate_.inlier_ratio = top.inlier_ratio;
-  estimate_.see_through_ratio = top.see_through_ratio;
-  estimate_.coverage = top.coverage;
-  step.concentrated = top.weight >= o.converged_weight && top.std_position <= o.converged_std_xyz &&
-                      top.std_rotation <= o.converged_std_angle;
+  step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
 }
 
 double ParticleFilter::judged_ratio() const {

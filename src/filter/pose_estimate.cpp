@@ -219,20 +219,28 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   for (std::size_t r = 0; r < k; ++r) root_rank_[roots[r]] = static_cast<std::int32_t>(r);
   e.hypotheses = describe(p, w, n, k, total);
 
-  const Hypothesis& top = e.hypotheses.front();
-  e.covariance = top.covariance;
-  e.mode_weight = top.weight;
-  e.mode_particles = top.particles;
-  e.std_position = top.std_position;
-  e.std_rotation = top.std_rotation;
-  e.converged = e.mode_weight >= options_.converged_weight && e.std_position <= options_.converged_std_xyz &&
-                e.std_rotation <= options_.converged_std_angle;
-  e.pose = top.pose;
+  e.converged = take_dominant_hypothesis(e, options_);
   if (options_.best_particle) {
     e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
     e.pose.translation() = p.position(best).cast<double>();
   }
   return e;
+}
+
+bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) {
+  if (e.hypotheses.empty()) throw Error("pose estimate: no hypothesis to take");
+  const Hypothesis& top = e.hypotheses.front();
+  if (!o.best_particle) e.pose = top.pose;
+  e.covariance = top.covariance;
+  e.mode_weight = top.weight;
+  e.mode_particles = top.particles;
+  e.std_position = top.std_position;
+  e.std_rotation = top.std_rotation;
+  e.inlier_ratio = top.inlier_ratio;
+  e.see_through_ratio = top.see_through_ratio;
+  e.coverage = top.coverage;
+  return top.weight >= o.converged_weight && top.std_position <= o.converged_std_xyz &&
+         top.std_rotation <= o.converged_std_angle;
 }
 
 std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,

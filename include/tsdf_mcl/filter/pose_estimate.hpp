@@ -77,6 +77,11 @@ struct PoseEstimate {
   std::vector<Hypothesis> hypotheses;
 };
 
+// Fills the estimate's summary from its dominant hypothesis (hypotheses[0], which must exist): pose (unless
+// best_particle, whose pose the estimator sets), covariance, mode weight and particles, spreads and fits. Returns
+// whether that hypothesis is concentrated by `options` (converged_weight, converged_std_xyz, converged_std_angle).
+bool take_dominant_hypothesis(PoseEstimate& estimate, const PoseEstimateOptions& options);
+
 // Weighted rotation mean (Markley); weights need not be normalized. Throws Error for an empty or zero-weight set.
 Eigen::Quaterniond average_rotation(const std::vector<Eigen::Quaterniond>& rotations,
                                     const std::vector<double>& weights);
