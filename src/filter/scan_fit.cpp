@@ -61,13 +61,13 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     // Grid units per metre along the ray, so that `s` below counts metres.
     const Eigen::Vector3f direction =
         length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
-    // The inside of a surface (a negative distance) at `s` metres along the ray was entered from the surface's
-    // front if the distance one voxel nearer the sensor is larger (the distance falls along the ray). From its back
-    // it grows along the ray: the far face of a wall the map saw from the other side only, its band reaching through
-    // the wall into a room the mapping run never entered. A LiDAR never sees a face from behind, so only a front
-    // entry is evidence: at a wrong pose a ray passing into a wall crosses the face the map holds.
-    // Over three voxels and by more than the map's noise: a wall's far side holds a flat plateau of its near face's
-    // band, where neighbouring voxels differ by noise either way.
+    // The inside of a surface (a negative distance) at `at` was entered from the surface's front if the distance
+    // three voxels nearer the sensor is larger by more than the map's noise (the distance falls along the ray; over
+    // three voxels because a wall's far side holds a flat plateau of its near face's band, where neighbouring voxels
+    // differ by noise either way). From its back it grows along the ray: the far face of a wall the map saw from the
+    // other side only, its band reaching through the wall into a room the mapping run never entered. A LiDAR never
+    // sees a face from behind, so only a front entry is evidence: at a wrong pose a ray passing into a wall crosses
+    // the face the map holds.
     const auto entered_from_front = [&](const Eigen::Vector3f& at, std::int32_t v) {
       const std::int32_t nearer = value_at(at - 3.0f * voxel * direction);
       return nearer != TsdfMap::kUnknownValue && nearer > v + front_rise;
