@@ -501,6 +501,11 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
 }
 
+bool ParticleFilter::map_judges_track() const {
+  constexpr double kMostOfTheScan = 0.75;
+  return !(estimate_.coverage < std::max(params_.convergence.min_coverage, kMostOfTheScan));
+}
+
 double ParticleFilter::judged_ratio() const {
   if (trusted_track()) return estimate_.inlier_ratio;
   return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
@@ -734,7 +739,7 @@ double ParticleFilter::judge_fit(FilterStep& step) {
   ever_concentrated_ = ever_concentrated_ || step.concentrated;
   const bool covered = !(estimate_.coverage < params_.convergence.min_coverage);
   const double ratio = judged_ratio();
-  const bool judged = !trusted_track() || covered;
+  const bool judged = !trusted_track() || map_judges_track();
   // A belief that is not a trusted track and whose scan the map hardly covers is off the map, not in an unmapped
   // room: a lost belief drifts there, where nothing speaks against it.
   const bool off_map = !trusted_track() && !covered;
@@ -834,8 +839,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   // averages start at the first convergence: a belief spread over the map fits badly by nature, and a long-term
   // average that remembers that phase would set the bar too low to ever notice a lost track.
   // Where the map covers too little of the scan at a trusted track the fit says nothing: the averages wait.
-  if (ever_converged_ && (!trusted_track() || !(estimate_.coverage < params_.convergence.min_coverage)))
-    step.random_share = recovery_.update(judged_ratio());
+  if (ever_converged_ && (!trusted_track() || map_judges_track())) step.random_share = recovery_.update(judged_ratio());
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
   const double implausible_share = judge_fit(step);
@@ -847,7 +851,11 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
                                             step.random_share > 1.0 - params_.estimate.converged_weight,
                                             challengers_weighed_ || params_.challenger_candidates == 0);
   step.challenged = convergence_.challenged(estimate_);
-  if (!(estimate_.coverage < params_.convergence.min_coverage)) trusted_ = estimate_.converged;
+  // Trust is earned where the map covers the scan (converged at converged_min_coverage) and lost only where it
+  // covers most of it: in a room the mapping run never entered the particles spread and `converged` lapses, which
+  // on a scan at the edge of the coverage threshold must not turn the track into an off-map belief.
+  if (estimate_.converged && !(estimate_.coverage < params_.convergence.min_coverage)) trusted_ = true;
+  if (!estimate_.converged && map_judges_track()) trusted_ = false;
   if (!keeper_.active() && estimate_.converged) {
     keeper_.start(estimate_.pose);
     track_covariance_ = estimate_.covariance;

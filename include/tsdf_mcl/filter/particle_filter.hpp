@@ -251,6 +251,11 @@ class ParticleFilter {
   // little). Any other belief is judged on the inlier share of all its points: a lost track that drifts out of
   // the map must not pass for one in an unmapped room.
   bool trusted_track() const { return keeper_.active() && trusted_; }
+  // Whether the map covers enough of the scan at the estimate for the fit to judge a trusted track (recovery's
+  // averages, the implausible-fit test, a lapse of `converged` ending the trust): most of it, not just
+  // converged_min_coverage. Near a room the mapping run never entered, the points the map does observe lie on its
+  // frontier, surfaces seen once at grazing angles through a door, and fit worse than the track is wrong.
+  bool map_judges_track() const;
   double judged_ratio() const;
   // Particles from the proposal that join the next generation (recovery, challengers).
   struct Injection {
@@ -283,7 +288,7 @@ class ParticleFilter {
   ConvergenceMonitor convergence_;
   TrackKeeper keeper_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
-  bool trusted_ = false;          // converged at the last update with enough map coverage (trusted_track())
+  bool trusted_ = false;          // converged with enough map coverage, not lapsed where the map covers the scan
   Matrix6d track_covariance_ = Matrix6d::Zero();
   GroupResampler group_resampler_;
 
