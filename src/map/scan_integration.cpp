@@ -323,9 +323,7 @@ class Accumulator {
               const Vector3i n = c + offset;
               float value = nan;
               if ((n.array() >= 0).all() && (n.array() < dims_.array()).all()) {
-                const std::size_t cell =
-                    static_cast<std::size_t>(n.x() + static_cast<std::int64_t>(dims_.x()) *
-                                                         (n.y() + static_cast<std::int64_t>(dims_.y()) * n.z()));
+                const std::size_t cell = cell_index(n);
                 const Vector3i l = v - B * offset;
                 if (band_of_cell[cell] >= 0) {
                   value = distances[static_cast<std::size_t>(band_of_cell[cell])]
