@@ -20,6 +20,7 @@
 #include "ros_conversions.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/one_line.hpp"
+#include "tsdf_mcl/core/pose.hpp"
 #include "tsdf_mcl/io/transform_tree.hpp"
 #include "tsdf_mcl/localizer/localizer_parameters.hpp"
 #include "tsdf_mcl/localizer/planar_pose.hpp"
@@ -149,6 +150,60 @@ LocalizerOptions localizer_options_of(const ros::NodeHandle& pnh) {
   }
 }
 
+// ~sensor_extrinsics: {frame: [x, y, z, roll, pitch, yaw]} (m; radians or with a unit, "90deg"), base_frame_id ->
+// frame. A value may also be text ("0 0 0.5 0 0 90deg"): `_sensor_extrinsics/lidar:=...` on the command line gives
+// text, as roscpp reads no lists there.
+std::map<std::string, Pose> sensor_extrinsics_of(const ros::NodeHandle& pnh) {
+  std::map<std::string, Pose> extrinsics;
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam("sensor_extrinsics", v)) return extrinsics;
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+    throw Error(
+        "~sensor_extrinsics must map frame names to [x, y, z, roll, pitch, yaw], e.g. {lidar: [0, 0, 0.5, 0, "
+        "0, 0]}");
+  }
+  for (auto& [frame, value] : v) {
+    const std::string what = "~sensor_extrinsics/" + frame;
+    std::string text;
+    try {
+      text = to_text(value);
+    } catch (const Error& e) {
+      throw Error(what + ": " + e.what());
+    }
+    std::vector<std::string> items;
+    std::string item;
+    for (const char c : text + " ") {
+      if (c == ' ' || c == ',' || c == '[' || c == ']' || c == '\t') {
+        if (!item.empty()) items.push_back(item);
+        item.clear();
+      } else {
+        item += c;
+      }
+    }
+    if (items.size() != 6) {
+      throw Error(what + " must be x, y, z, roll, pitch, yaw (m, and radians or e.g. 90deg), got '" + one_line(text) +
+                  "'");
+    }
+    double p[6];
+    const char* names[] = {"x", "y", "z", "roll", "pitch", "yaw"};
+    for (int i = 0; i < 6; ++i) {
+      const std::string name = what + "'s " + names[i];
+      if (i >= 3) {
+        p[i] = parse_angle(items[i], name, 2.0 * M_PI);
+        continue;
+      }
+      // A mounting offset beyond 100 m is a typo (millimetres for metres), not a robot.
+      char* end = nullptr;
+      p[i] = std::strtod(items[i].c_str(), &end);
+      if (end != items[i].c_str() + items[i].size() || !(std::abs(p[i]) <= 100.0)) {
+        throw Error(name + " must be a number in -100..100 m, got '" + one_line(items[i]) + "'");
+      }
+    }
+    extrinsics[frame] = pose_from_xyz_rpy(p[0], p[1], p[2], p[3], p[4], p[5]);
+  }
+  return extrinsics;
+}
+
 NodeSettings settings_from(const ros::NodeHandle& pnh) {
   NodeSettings s;
   if (!pnh.getParam("map_file", s.map_file) || s.map_file.empty()) {
@@ -175,6 +230,7 @@ NodeSettings settings_from(const ros::NodeHandle& pnh) {
   s.max_published_particles =
       static_cast<int>(number_param(pnh, "max_published_particles", s.max_published_particles, 0, 1e7, true));
   s.map_cloud_points = static_cast<int>(number_param(pnh, "map_cloud_points", s.map_cloud_points, 0, 1e8, true));
+  s.sensor_extrinsics = sensor_extrinsics_of(pnh);
   return s;
 }
 
@@ -191,6 +247,7 @@ void warn_unknown_parameters(const ros::NodeHandle& pnh) {
   for (const std::string& name : names) {
     if (name.rfind(ns, 0) != 0) continue;
     const std::string key = name.substr(ns.size());
+    if (key.rfind("sensor_extrinsics/", 0) == 0) continue;  // one per frame, any frame name
     if (std::find(known.begin(), known.end(), key) == known.end()) {
       ROS_WARN("tsdf_mcl: unknown parameter %s ignored%s (see tsdf-mcl localize --help and docs/ros.md)", name.c_str(),
                did_you_mean(key, known, "~").c_str());
@@ -375,7 +432,7 @@ void LocalizationNode::on_imu(const sensor_msgs::ImuConstPtr& msg) {
     return;
   }
   // Specific force in the base frame: the IMU's mounting rotation from tf (the filter's sensor is the base).
-  std::optional<Pose> base_T_imu = lookup(settings_.base_frame_id, msg->header.frame_id, ros::Time(0));
+  std::optional<Pose> base_T_imu = extrinsic(msg->header.frame_id, nullptr);
   if (!base_T_imu) return;
   ImuSample s;
   s.time = msg->header.stamp.toSec();
@@ -538,18 +595,32 @@ std::optional<Pose> LocalizationNode::odometry_at(const ros::Time& stamp, std::s
   return std::nullopt;
 }
 
+std::optional<Pose> LocalizationNode::extrinsic(const std::string& frame, std::string* error, std::string* source) {
+  // Extrinsics are rigid: the latest transform serves every stamp.
+  const auto given = settings_.sensor_extrinsics.find(frame);
+  const tf2::BufferCore& core = tf_buffer_;
+  // With the parameter there is no waiting for tf: the parameter is for robots that have none.
+  if (given == settings_.sensor_extrinsics.end() || core.canTransform(settings_.base_frame_id, frame, ros::Time(0))) {
+    if (source) *source = "tf";
+    return lookup(settings_.base_frame_id, frame, ros::Time(0), error);
+  }
+  if (source) *source = "~sensor_extrinsics/" + frame;
+  return given->second;
+}
+
 bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vector<Eigen::Vector3f>& points,
                                  bool primary, std::string* error) {
-  // Extrinsics are rigid: the latest transform serves every stamp.
-  std::string why;
-  const std::optional<Pose> base_T_cloud = lookup(settings_.base_frame_id, msg.header.frame_id, ros::Time(0), &why);
+  std::string why, source;
+  const std::optional<Pose> base_T_cloud = extrinsic(msg.header.frame_id, &why, &source);
   if (!base_T_cloud) {
     *error = "no transform " + settings_.base_frame_id + " -> " + msg.header.frame_id +
              " (the LiDAR's mounting): " + why +
              ". Publish it latched on /tf_static (robot_state_publisher, or rosrun tf2_ros "
              "static_transform_publisher X Y Z YAW PITCH ROLL " +
-             settings_.base_frame_id + " " + msg.header.frame_id +
-             "), or check ~base_frame_id and the clouds' header.frame_id; retried with every scan";
+             settings_.base_frame_id + " " + msg.header.frame_id + "), give it as ~sensor_extrinsics/" +
+             msg.header.frame_id +
+             ": [x, y, z, roll, pitch, yaw], or check ~base_frame_id and the clouds' header.frame_id; retried with "
+             "every scan";
     return false;
   }
   PointCloud cloud = cloud_from_msg(msg, "PointCloud2 in frame " + msg.header.frame_id);
@@ -558,6 +629,7 @@ bool LocalizationNode::add_cloud(const sensor_msgs::PointCloud2& msg, std::vecto
   if (primary) {
     last_sensor_scan_ = std::move(cloud.points);  // the cloud is not used after this
     last_base_T_sensor_ = *base_T_cloud;
+    last_extrinsic_source_ = source;
   }
   return true;
 }
@@ -760,6 +832,7 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
     add("inlier_ratio", std::to_string(record->step.estimate.inlier_ratio));
     add("map_coverage", std::to_string(record->step.estimate.coverage));
   }
+  add("extrinsic", last_extrinsic_source_);  // tf, or ~sensor_extrinsics/<frame>
   add("backend", localizer_->evaluator().backend());
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = stamp;

@@ -59,6 +59,9 @@ struct NodeSettings {
   bool tf_broadcast = true;
   int max_published_particles = 2000;
   int map_cloud_points = 300000;
+  // base_frame_id -> frame, by the frame's name: the LiDAR's (or IMU's) mounting where no tf provides it (a robot
+  // without robot_state_publisher, a bag recorded without /tf_static). tf wins where it has the transform.
+  std::map<std::string, Pose> sensor_extrinsics;
 };
 
 class LocalizationNode {
@@ -90,6 +93,8 @@ class LocalizationNode {
   std::optional<Pose> lookup(const std::string& target, const std::string& source, const ros::Time& stamp,
                              std::string* error = nullptr);
   std::optional<Pose> odometry_at(const ros::Time& stamp, std::string* error);
+  // base_frame_id -> `frame`: from tf, else from ~sensor_extrinsics; `source` (where given) says which.
+  std::optional<Pose> extrinsic(const std::string& frame, std::string* error, std::string* source = nullptr);
   bool add_cloud(const sensor_msgs::PointCloud2& msg, std::vector<Eigen::Vector3f>& points, bool primary,
                  std::string* error);
   void publish(const ros::Time& stamp, const ScanRecord& record, const Pose& odom_T_base, double update_ms);
@@ -143,6 +148,7 @@ class LocalizationNode {
   std::vector<Eigen::Vector3f> last_sensor_scan_;
   std::vector<Eigen::Vector3f> scan_points_;  // the merged scan in base_frame_id, reused from scan to scan
   Pose last_base_T_sensor_ = Pose::Identity();
+  std::string last_extrinsic_source_;  // where the last primary cloud's extrinsic came from (diagnostics)
   std::size_t processed_ = 0, failed_ = 0, late_ = 0;
   std::optional<ros::Time> last_stamp_;
   bool estimate_valid_ = false;  // the filter has processed a scan since it (re)started

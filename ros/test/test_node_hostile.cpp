@@ -130,6 +130,11 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
       {{map, "_transform_tolerance:=abc"}, "~transform_tolerance must be a number in 0..60, got 'abc'"},
       {{map, "_map_cloud_points:=1000000000000"},
        "~map_cloud_points must be a whole number in 0..1e+08, got 1000000000000"},
+      {{map, "_sensor_extrinsics/lidar:=0 0 0.5"},
+       "~sensor_extrinsics/lidar must be x, y, z, roll, pitch, yaw (m, and radians or e.g. 90deg), got '0 0 0.5'"},
+      {{map, "_sensor_extrinsics/lidar:=0 0 500 0 0 0"},
+       "~sensor_extrinsics/lidar's z must be a number in -100..100 m, got '500'"},
+      {{map, "_sensor_extrinsics/lidar:=0 0 0.5 0 0 90"}, "~sensor_extrinsics/lidar's yaw 90 is more than"},
   };
   for (std::size_t i = 0; i < bad.size(); ++i) {
     const fs::path node_log = dir / ("bad" + std::to_string(i) + ".log");
@@ -149,7 +154,9 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
   Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", map, "_point_topics:=/points", "_odom_topic:=/odom",
-              "_imu_topic:=/imu", "_backend:=cpu", "_particles:=3000", "_seed:=1"},
+              "_imu_topic:=/imu", "_backend:=cpu", "_particles:=3000", "_seed:=1",
+              // The mounting of a second LiDAR frame that no tf knows (as roscpp passes it: text).
+              "_sensor_extrinsics/lidar_b:=[0, 0, 0.5, 0, 0, 90deg]"},
              dir / "node.log");
   ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
       << "the node did not come up; see " << dir / "node.log";
@@ -183,10 +190,11 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
     m.linear_acceleration.z = az;
     imu.publish(m);
   };
-  // One scan 0.1 s after the last, with odometry and an IMU sample before it; the node's status on it.
-  auto scan = [&]() -> diagnostic_msgs::DiagnosticStatus {
+  // One scan 0.1 s after the last, with odometry (unless told not to) and an IMU sample before it; the node's status
+  // on it.
+  auto scan = [&](bool with_odometry = true) -> diagnostic_msgs::DiagnosticStatus {
     now += 0.1;
-    odometry(now - 0.05, 0.0);
+    if (with_odometry) odometry(now - 0.05, 0.0);
     imu_sample(now - 0.05, 9.81);
     cloud.header.stamp = ros::Time(now);
     points.publish(cloud);
@@ -198,10 +206,10 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
     return *s;
   };
   // Scans until `done` holds for a status (messages on other topics may reach the node a scan later).
-  auto scan_until = [&](auto done) -> diagnostic_msgs::DiagnosticStatus {
+  auto scan_until = [&](auto done, bool with_odometry = true) -> diagnostic_msgs::DiagnosticStatus {
     diagnostic_msgs::DiagnosticStatus s;
     for (int i = 0; i < 30; ++i) {
-      s = scan();
+      s = scan(with_odometry);
       if (HasFailure() || done(s)) return s;
     }
     ADD_FAILURE() << "30 scans without the expected status; last: " << s.message;
@@ -269,9 +277,63 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   ASSERT_TRUE(pose) << "no pose for the last scan";
   EXPECT_TRUE(std::isfinite(pose->pose.pose.position.x) && std::isfinite(pose->pose.pose.position.y) &&
               std::isfinite(pose->pose.pose.position.z));
+
+  // 4. The cloud's frame changes to one tf does not know: ~sensor_extrinsics gives its mounting. A frame neither knows
+  //    is the ERROR of step 1, naming the parameter as a fix too; back in the first frame, tf serves again.
+  constexpr auto kError = diagnostic_msgs::DiagnosticStatus::ERROR;
+  cloud.header.frame_id = "lidar_b";
+  s = scan();
+  EXPECT_NE(s.level, kError) << s.message;
+  EXPECT_EQ(value(s, "extrinsic"), "~sensor_extrinsics/lidar_b");
+  EXPECT_TRUE(listener.pose(ros::Time(now)));
+  cloud.header.frame_id = "lidar_c";
+  s = scan();
+  EXPECT_EQ(s.level, kError);
+  EXPECT_NE(s.message.find("no transform base_link -> lidar_c"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("~sensor_extrinsics/lidar_c"), std::string::npos) << s.message;
+  EXPECT_FALSE(listener.pose(ros::Time(now)));
+  cloud.header.frame_id = "lidar";
+  s = scan();
+  EXPECT_NE(s.level, kError) << s.message;
+  EXPECT_EQ(value(s, "extrinsic"), "tf");
+
+  // 5. A burst: 30 scans at once (a bag played fast, a driver flushing its queue). The node does not fall behind: it
+  //    keeps the newest waiting scan (older ones count as skipped, or the subscriber queue drops them) and answers
+  //    the last one.
+  const std::size_t before_burst = count(s, "processed_scans");
+  for (int i = 0; i < 30; ++i) {
+    now += 0.01;
+    odometry(now - 0.005, 0.0);
+    imu_sample(now - 0.005, 9.81);
+    cloud.header.stamp = ros::Time(now);
+    points.publish(cloud);
+  }
+  const auto after_burst = listener.wait_status(ros::Time(now), 60s);
+  ASSERT_TRUE(after_burst) << "no status for the burst's last scan; see " << dir / "node.log";
+  s = *after_burst;
+  EXPECT_NE(s.level, kError) << s.message;
+  EXPECT_GT(count(s, "processed_scans"), before_burst);
+  EXPECT_LE(count(s, "processed_scans"), before_burst + 30);
+  ASSERT_TRUE(node.running());
+
+  // 6. Odometry stalls while scans go on: within tf_timeout (0.2 s) of the last message the node uses it, beyond
+  //    that the status says the odometry stalled and no pose is published; odometry back, the node goes on.
+  s = scan_until([](const auto& st) { return st.level == kError; }, /*with_odometry=*/false);
+  EXPECT_NE(s.message.find("odometry stalled"), std::string::npos) << s.message;
+  EXPECT_FALSE(listener.pose(ros::Time(now)));
+  s = scan_until([](const auto& st) { return st.level != kError; });
+  EXPECT_TRUE(listener.pose(ros::Time(now)));
+
+  // 7. An IMU sample that arrives after the scan it precedes (late, but after the previous sample) is used, not
+  //    rejected; scans without IMU samples go on.
+  rejected = count(s, "rejected_messages");
+  imu_sample(now - 0.01, 9.81);
+  s = scan();
+  EXPECT_EQ(count(s, "rejected_messages"), rejected) << value(s, "last_rejection");
+  EXPECT_NE(s.level, kError) << s.message;
   const std::size_t processed = count(s, "processed_scans");
 
-  // 4. Time goes back 100 s (the bag played again): tf and filter restart, the node goes on from the new time.
+  // 8. Time goes back 100 s (the bag played again): tf and filter restart, the node goes on from the new time.
   now -= 100.0;
   tf_static.publish(statics);
   s = scan_until([](const auto& st) { return count(st, "time_jumps") > 0 && st.level != 2; });
