@@ -96,7 +96,10 @@ def check_includes(root, findings):
 
 def check_cmake(root, findings):
     text = (root / "src" / "CMakeLists.txt").read_text()
-    calls = {m.group(1): m.group(2) for m in re.finditer(r"^tsdf_mcl_layer\((\w+)(.*?)\)\s*$", text, re.S | re.M)}
+    # A layer may be declared more than once (backends with and without Vulkan): its links are the union.
+    calls = {}
+    for m in re.finditer(r"^\s*tsdf_mcl_layer\((\w+)(.*?)\)\s*$", text, re.S | re.M):
+        calls[m.group(1)] = calls.get(m.group(1), "") + " " + m.group(2)
     extra = {}
     for m in re.finditer(r"target_link_libraries\(tsdf_mcl_(\w+)\s(.*?)\)", text, re.S):
         extra[m.group(1)] = extra.get(m.group(1), "") + " " + m.group(2)

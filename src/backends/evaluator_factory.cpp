@@ -5,9 +5,21 @@
 
 #include "tsdf_mcl/cpu/cpu_evaluator.hpp"
 #include "tsdf_mcl/core/error.hpp"
+#ifndef TSDF_MCL_NO_VULKAN
 #include "tsdf_mcl/gpu/vulkan_evaluator.hpp"
+#endif
 
 namespace tsdf_mcl {
+namespace {
+
+#ifdef TSDF_MCL_NO_VULKAN
+// A build without the gpu layer (cmake -DTSDF_MCL_VULKAN=OFF): asking for Vulkan is an error, auto picks the CPU.
+std::unique_ptr<SensorEvaluator> make_vulkan_evaluator(const TsdfMap&, const EvaluatorOptions&) {
+  throw Error("this tsdf-mcl was built without the Vulkan backend (cmake -DTSDF_MCL_VULKAN=OFF); use backend cpu");
+}
+#endif
+
+}  // namespace
 
 std::unique_ptr<SensorEvaluator> make_evaluator(const TsdfMap& map, const EvaluatorOptions& options,
                                                 std::string* note) {

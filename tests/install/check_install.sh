@@ -24,6 +24,24 @@ cmake -S "$here/consumer" -B "$scratch/cmake" -G Ninja -DCMAKE_BUILD_TYPE=Releas
 cmake --build "$scratch/cmake" >/dev/null
 "$scratch/cmake/consumer"
 
+# Components find only their own dependencies: map, cpu and filter build with Vulkan, glm, Embree and pkg-config
+# (Cairo) made unfindable; asking for gpu the same way fails, naming Vulkan.
+no_gpu_packages=(-DCMAKE_DISABLE_FIND_PACKAGE_Vulkan=TRUE -DCMAKE_DISABLE_FIND_PACKAGE_glm=TRUE
+                 -DCMAKE_DISABLE_FIND_PACKAGE_embree=TRUE -DCMAKE_DISABLE_FIND_PACKAGE_PkgConfig=TRUE)
+cmake -S "$here/consumer" -B "$scratch/cpu_only" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCONSUMER_CPU_ONLY=ON "${no_gpu_packages[@]}" >"$scratch/cpu_only.log" 2>&1 ||
+  { cat "$scratch/cpu_only.log" >&2; echo "check_install: COMPONENTS map cpu filter needs more than their own" >&2; exit 1; }
+cmake --build "$scratch/cpu_only" >/dev/null
+"$scratch/cpu_only/consumer"
+mkdir -p "$scratch/gpu"
+printf 'cmake_minimum_required(VERSION 3.22)\nproject(gpu LANGUAGES CXX)\nfind_package(tsdf_mcl REQUIRED COMPONENTS gpu)\n' \
+  >"$scratch/gpu/CMakeLists.txt"
+if cmake -S "$scratch/gpu" -B "$scratch/gpu/build" -DCMAKE_PREFIX_PATH="$prefix" "${no_gpu_packages[@]}" \
+  >"$scratch/gpu.log" 2>&1; then
+  echo "check_install: COMPONENTS gpu was found without Vulkan" >&2; exit 1
+fi
+grep -q "Vulkan" "$scratch/gpu.log" || { cat "$scratch/gpu.log" >&2; echo "check_install: the error does not name Vulkan" >&2; exit 1; }
+
 # An unknown component must fail find_package with a message naming it.
 mkdir -p "$scratch/bad"
 printf 'cmake_minimum_required(VERSION 3.22)\nproject(bad LANGUAGES CXX)\nfind_package(tsdf_mcl REQUIRED COMPONENTS warp_drive)\n' \
