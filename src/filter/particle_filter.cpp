@@ -89,7 +89,8 @@ ParticleFilter::ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, c
       recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin),
       convergence_(params.convergence),
       keeper_(params.track),
-      subset_first_(params.subset_first) {
+      subset_first_(params.subset_first),
+      motion_(params.motion.type) {
   params_.validate();
   if (map.empty()) throw Error("the map is empty");
   if (params_.unknown_as_free) params_.sensor.unknown_distance = map.truncation();
@@ -127,9 +128,7 @@ void ParticleFilter::start(std::size_t count) {
   count_ = count;
   std::fill_n(prior_log_weight_.begin(), count_, 0.0);
   initialized_ = true;
-  has_update_ = false;
-  last_odometry_.reset();
-  velocity_delta_.reset();
+  motion_.reset();
   updates_since_resample_ = 0;
   injected_begin_ = injected_end_ = 0;
   recovery_.reset();
@@ -752,71 +751,37 @@ double ParticleFilter::judge_fit(FilterStep& step) {
   return off_map ? std::max(share, 1.0 - estimate_.coverage / params_.convergence.min_coverage) : share;
 }
 
-FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
-                                  const std::optional<Pose>& odometry, const ScanExtras& extras) {
-  const Stopwatch t_start;
-  if (!initialized_) throw Error("the particle filter is not initialized");
-  if (points.empty()) throw Error("empty scan: no points left for the sensor update");
-  const bool use_odometry = params_.motion.type == MotionModelType::kOdometry;
-  if (use_odometry && !odometry) {
-    throw Error("motion_model odometry needs an odometry pose for every scan (odom.txt)");
-  }
-  FilterStep step;
-  step.points = points.size();
-  step.particles = count_;
-
-  Pose delta = Pose::Identity();
+bool ParticleFilter::calls_for_update(const Pose& delta, double time) {
   bool moved = true;
-  if (has_update_) {
-    switch (params_.motion.type) {
-      case MotionModelType::kOdometry:
-        delta = orthonormalized(last_odometry_->inverse() * *odometry);
-        break;
-      case MotionModelType::kConstantVelocity:
-        if (velocity_delta_ && velocity_dt_ > 0.0)
-          delta = scale_motion(*velocity_delta_, (time - last_time_) / velocity_dt_);
-        break;
-      case MotionModelType::kDiffusion:
-        break;
-    }
-    // The gate needs measured motion: with a predicted one it could hold a filter still forever. Before the
-    // first convergence a standing robot still gets an update every roughening_interval (see roughening).
-    if (use_odometry) {
-      moved = delta.translation().norm() >= params_.update_min_d ||
-              Eigen::AngleAxisd(delta.linear()).angle() >= params_.update_min_a ||
-              (!ever_converged_ && time - last_time_ >= params_.roughening_interval);
-    }
+  // The gate needs measured motion: with a predicted one it could hold a filter still forever. Before the first
+  // convergence a standing robot still gets an update every roughening_interval (see roughening).
+  if (motion_.has_update() && params_.motion.type == MotionModelType::kOdometry) {
+    moved = delta.translation().norm() >= params_.update_min_d ||
+            Eigen::AngleAxisd(delta.linear()).angle() >= params_.update_min_a ||
+            (!ever_converged_ && motion_.elapsed(time) >= params_.roughening_interval);
   }
   moved = moved || force_update_;
   force_update_ = false;
-  if (!moved) {
-    estimate_.pose = last_estimate_pose_ * delta;
-    step.estimate = estimate_;
-    step.state = state_;
-    step.next_particles = count_;
-    step.timings.total_ms = t_start.ms();
-    return step;
-  }
-  step.updated = true;
-  const std::size_t n = count_;
+  return moved;
+}
 
-  Stopwatch t0;
-  if (has_update_) {
-    MotionNoise noise = motion_noise(params_.motion, delta, time - last_time_);
-    if (!ever_converged_) {
-      const auto rt = static_cast<float>(params_.roughening_xyz);
-      const auto ra = static_cast<float>(params_.roughening_angle);
-      noise.sigma_along = std::hypot(noise.sigma_along, rt);
-      noise.sigma_across = std::hypot(noise.sigma_across, rt);
-      noise.sigma_vertical = std::hypot(noise.sigma_vertical, rt);
-      noise.sigma_roll = std::hypot(noise.sigma_roll, ra);
-      noise.sigma_pitch = std::hypot(noise.sigma_pitch, ra);
-      noise.sigma_yaw = std::hypot(noise.sigma_yaw, ra);
-    }
-    apply_motion(evaluator_.particles(), n, delta, noise, params_.seed, step_);
+void ParticleFilter::predict(std::size_t n, const Pose& delta, double dt) {
+  if (!motion_.has_update()) return;
+  MotionNoise noise = motion_noise(params_.motion, delta, dt);
+  if (!ever_converged_) {
+    const auto rt = static_cast<float>(params_.roughening_xyz);
+    const auto ra = static_cast<float>(params_.roughening_angle);
+    noise.sigma_along = std::hypot(noise.sigma_along, rt);
+    noise.sigma_across = std::hypot(noise.sigma_across, rt);
+    noise.sigma_vertical = std::hypot(noise.sigma_vertical, rt);
+    noise.sigma_roll = std::hypot(noise.sigma_roll, ra);
+    noise.sigma_pitch = std::hypot(noise.sigma_pitch, ra);
+    noise.sigma_yaw = std::hypot(noise.sigma_yaw, ra);
   }
-  step.timings.motion_ms = t0.ms();
+  apply_motion(evaluator_.particles(), n, delta, noise, params_.seed, step_);
+}
 
+WeightSummary ParticleFilter::weigh_scan(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
   if (points.size() > points_capacity_) {
     points_capacity_ = points.size();
     evaluator_.reserve(capacity_, points_capacity_);
@@ -828,10 +793,12 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   step.timings.weight_ms = et.evaluate_ms;
   step.timings.weight_gpu_ms = et.weight_gpu_ms;
   step.timings.reduce_gpu_ms = et.reduce_gpu_ms;
+  return summary;
+}
 
-  t0 = Stopwatch();
+double ParticleFilter::weigh_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points,
+                                      const WeightSummary& summary, FilterStep& step) {
   prepare_weights(n, step);
-  const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
   weigh_hypotheses(n, points, step);
   step.fit = belief_fit(n, summary, points.size());
   // Recovery follows the dominant hypothesis's inlier ratio: it falls when the track is lost and hardly moves
@@ -844,9 +811,14 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   step.w_fast = recovery_.w_fast();
   const double implausible_share = judge_fit(step);
   step.random_share = std::max(step.random_share, implausible_share);
-  // Recovery moving more of the belief elsewhere than converged_weight allows outside the dominant mode: lost.
+  return implausible_share;
+}
+
+void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points,
+                            double implausible_share, FilterStep& step) {
   challengers_weighed_ = challengers_weighed_ || last_challenge_time_ > -1e300;
-  keep_track(delta, has_update_ ? time - last_time_ : 0.0, points, step);
+  keep_track(delta, dt, points, step);
+  // Recovery moving more of the belief elsewhere than converged_weight allows outside the dominant mode: lost.
   estimate_.converged = convergence_.update(estimate_, step.concentrated && !step.holding, delta,
                                             step.random_share > 1.0 - params_.estimate.converged_weight,
                                             challengers_weighed_ || params_.challenger_candidates == 0);
@@ -872,20 +844,10 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   }
   step.state = state_ = classify(step);
   step.estimate = estimate_;
-  step.timings.reduce_ms = t0.ms();
+}
 
-  if (params_.motion.type == MotionModelType::kConstantVelocity) {
-    // Only a localized track has a velocity; the jumps of a spread belief's estimate are not motion.
-    const bool localized = estimate_.std_position <= kVelocityMaxStd;
-    if (has_update_ && was_localized && localized && time > last_time_) {
-      velocity_delta_ = last_estimate_pose_.inverse() * estimate_.pose;
-      velocity_dt_ = time - last_time_;
-    } else {
-      velocity_delta_.reset();
-    }
-  }
-
-  t0 = Stopwatch();
+void ParticleFilter::resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points,
+                                     const ScanExtras& extras, FilterStep& step) {
   ++updates_since_resample_;
   bool resampled = false;
   if (updates_since_resample_ >= params_.resample_interval) {
@@ -922,12 +884,52 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     }
   }
   if (!resampled) std::copy_n(post_log_weight_.begin(), n, prior_log_weight_.begin());
+}
+
+FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f>& points,
+                                  const std::optional<Pose>& odometry, const ScanExtras& extras) {
+  const Stopwatch t_start;
+  if (!initialized_) throw Error("the particle filter is not initialized");
+  if (points.empty()) throw Error("empty scan: no points left for the sensor update");
+  if (params_.motion.type == MotionModelType::kOdometry && !odometry) {
+    throw Error("motion_model odometry needs an odometry pose for every scan (odom.txt)");
+  }
+  FilterStep step;
+  step.points = points.size();
+  step.particles = count_;
+  step.next_particles = count_;
+  const std::size_t n = count_;
+
+  // Motion gate: a robot that has not moved keeps its belief, the estimate carried along by the motion.
+  const Pose delta = motion_.delta(time, odometry);
+  if (!calls_for_update(delta, time)) {
+    estimate_.pose = last_estimate_pose_ * delta;
+    step.estimate = estimate_;
+    step.state = state_;
+    step.timings.total_ms = t_start.ms();
+    return step;
+  }
+  step.updated = true;
+  Stopwatch t0;
+  predict(n, delta, motion_.elapsed(time));
+  step.timings.motion_ms = t0.ms();
+  const WeightSummary summary = weigh_scan(n, points, step);
+
+  t0 = Stopwatch();
+  const bool was_localized = estimate_.std_position <= kVelocityMaxStd;
+  const double implausible_share = weigh_evidence(n, points, summary, step);
+  decide(delta, motion_.elapsed(time), points, implausible_share, step);
+  step.timings.reduce_ms = t0.ms();
+  // Only a localized track has a velocity; the jumps of a spread belief's estimate are not motion.
+  motion_.observe_estimate(time, last_estimate_pose_, estimate_.pose,
+                           was_localized && estimate_.std_position <= kVelocityMaxStd);
+
+  t0 = Stopwatch();
+  resample_policy(time, n, points, extras, step);
   step.timings.resample_ms = t0.ms();
   step.next_particles = count_;
 
-  has_update_ = true;
-  last_time_ = time;
-  if (odometry) last_odometry_ = *odometry;
+  motion_.finish_update(time, odometry);
   last_estimate_pose_ = estimate_.pose;
   ++step_;
   step.timings.total_ms = t_start.ms();

@@ -20,6 +20,7 @@
 #include "tsdf_mcl/filter/global_proposal.hpp"
 #include "tsdf_mcl/filter/kld_sampling.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/filter/motion_prediction.hpp"
 #include "tsdf_mcl/filter/particle_init.hpp"
 #include "tsdf_mcl/filter/pose_estimate.hpp"
 #include "tsdf_mcl/filter/recovery.hpp"
@@ -237,6 +238,23 @@ class ParticleFilter {
  private:
   GlobalProposal& proposal();
   void start(std::size_t count);
+  // The stages of update(), in order.
+  // Motion gate: whether the motion since the last update (or a request) calls for a sensor update.
+  bool calls_for_update(const Pose& delta, double time);
+  // Motion model: every particle moves by `delta` with its noise, roughened until the first convergence.
+  void predict(std::size_t n, const Pose& delta, double dt);
+  // Sensor update: the scan's likelihood of every particle (subset first where configured).
+  WeightSummary weigh_scan(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // Evidence: tempered weights, the hypotheses and their paired evidence, the fit recovery follows and the
+  // implausible-fit test; returns the share of the next generation a wrong lock sends to a new search (0: none).
+  double weigh_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const WeightSummary& summary,
+                        FilterStep& step);
+  // Decision: the track keeper's turn, convergence, the track's trust, a wrong lock's restart, the state.
+  void decide(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, double implausible_share,
+              FilterStep& step);
+  // Resampling policy: when to resample (interval, depletion, KLD size) and what joins (recovery, challengers).
+  void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras,
+                       FilterStep& step);
   void prepare_weights(std::size_t n, FilterStep& step);
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
   double belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const;
@@ -317,15 +335,9 @@ class ParticleFilter {
   std::vector<double> top_log_;
   std::vector<std::uint8_t> top_observed_;
 
-  // Motion bookkeeping at the last filter update.
-  bool has_update_ = false;
+  MotionPrediction motion_;  // the motion model's state between updates
   bool force_update_ = false;
-  double last_time_ = 0.0;
-  std::optional<Pose> last_odometry_;
   Pose last_estimate_pose_ = Pose::Identity();
-  // Constant-velocity model: the estimated motion between the last two updates and its duration.
-  std::optional<Pose> velocity_delta_;
-  double velocity_dt_ = 0.0;
 
   PoseEstimate estimate_;
   TrackState state_ = TrackState::kSearching;
