@@ -1,0 +1,321 @@
+// ParticleFilter's evidence and decision: tempered weights, the hypotheses and their paired evidence, the fit
+// recovery and the implausible-fit test follow, the track keeper's turn and the state (particle_filter.hpp).
+#include "tsdf_mcl/filter/particle_filter.hpp"
+
+#include <algorithm>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "tsdf_mcl/core/stopwatch.hpp"
+#include "tsdf_mcl/sensor/weight_reduction.hpp"
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/motion_model.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
+
+namespace tsdf_mcl {
+namespace {
+
+// Tempered weights exp(prior + beta * l - max) into w; returns their effective sample size.
+// The max and the exps in parallel (the tempering's bisection calls this 18 times an update: 7 ms for 100k
+// particles on one core); the sums sequential, so the result does not depend on the thread count.
+double tempered(const double* prior, const float* l, std::size_t n, double beta, double* w) {
+  const auto count = static_cast<std::ptrdiff_t>(n);
+  double max = -std::numeric_limits<double>::infinity();
+#pragma omp parallel for schedule(static) reduction(max : max) if (n >= kParallelParticles)
+  for (std::ptrdiff_t i = 0; i < count; ++i) max = std::max(max, prior[i] + beta * l[i]);
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+  for (std::ptrdiff_t i = 0; i < count; ++i) w[i] = std::exp(prior[i] + beta * l[i] - max);
+  return effective_sample_size(w, n);
+}
+
+}  // namespace
+
+void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
+  const ParticleArrays p = evaluator_.particles();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(p.log_weight[i])) {
+      throw Error("sensor update gave particle " + std::to_string(i) + " a non-finite weight");
+    }
+  }
+  // Freshly injected random particles do not count: they are guesses, not belief, and a floor that grew with
+  // them would hand their weight back to them whenever recovery floods a converged set.
+  const std::size_t fresh = std::min(injected_end_, n) - std::min(injected_begin_, n);
+  const double target = params_.min_ess_ratio * static_cast<double>(fresh < n ? n - fresh : n);
+  double beta = 1.0;
+  double ess = tempered(prior_log_weight_.data(), p.log_weight, n, 1.0, weights_.data());
+  if (ess < target) {
+    // ESS falls as beta grows (the weights sharpen): bisect for the largest beta that keeps the target, in
+    // log(beta) because useful values span orders of magnitude (1e-4 for a global belief of 100k particles).
+    double lo = std::log(1e-7);
+    double hi = 0.0;
+    for (int iteration = 0; iteration < 16; ++iteration) {
+      const double mid = 0.5 * (lo + hi);
+      if (tempered(prior_log_weight_.data(), p.log_weight, n, std::exp(mid), weights_.data()) >= target) {
+        lo = mid;
+      } else {
+        hi = mid;
+      }
+    }
+    beta = std::exp(lo);
+    ess = tempered(prior_log_weight_.data(), p.log_weight, n, beta, weights_.data());
+  }
+  for (std::size_t i = 0; i < n; ++i) post_log_weight_[i] = prior_log_weight_[i] + beta * p.log_weight[i];
+  step.tempering = beta;
+  step.ess = ess;
+}
+
+void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
+  estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
+  std::vector<Hypothesis>& h = estimate_.hypotheses;
+  const auto k = static_cast<std::int32_t>(h.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int32_t g = estimator_.hypothesis_of(i);
+    group_[i] = g >= 0 ? g : k;
+  }
+  // Each hypothesis's evidence: the mean log-likelihood per point at its mean pose refined onto the map (the
+  // place's fit, not its particles' alignment); the refined pose is the hypothesis's estimate. The rest
+  // (lighter modes, challengers, stray particles) have no one pose: theirs is their marginal likelihood per
+  // point. A scan counts as hypothesis_evidence_points independent points, or as few as the tempering lets the
+  // particles count it while that is fewer (a spread, global belief: no early verdict between its modes).
+  EndpointModel plain = params_.sensor;
+  plain.weight_exponent = 1.0f;
+  const auto count = static_cast<double>(points.size());
+  std::vector<double> evidence(h.size() + 1, 0.0);
+  std::vector<Pose> refined(h.size());
+  std::vector<std::vector<double>> point_log(h.size());
+  std::vector<std::vector<std::uint8_t>> observed(h.size());
+  std::vector<RayFit> fits(h.size());
+  std::size_t reference = 0;  // the best-fitting hypothesis
+  std::vector<double> totals(h.size(), 0.0);
+  // Each hypothesis's heaviest particle: a second start for the refinement. A mode's mean sits off its place
+  // while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps from
+  // there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
+  std::vector<std::size_t> heaviest(h.size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto g = static_cast<std::size_t>(group_[i]);
+    if (g < h.size() && (heaviest[g] == n || weights_[i] > weights_[heaviest[g]])) heaviest[g] = i;
+  }
+  const ParticleArrays particles = evaluator_.particles();
+  // The hypotheses' refinements are independent (the map is read-only): one per thread.
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
+    const auto r = static_cast<std::size_t>(rr);
+    std::vector<double> candidate_log;
+    totals[r] = -std::numeric_limits<double>::infinity();
+    std::vector<Pose> starts{h[r].pose};
+    if (heaviest[r] < n) {
+      Pose best = Pose::Identity();
+      best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
+      best.translation() = particles.position(heaviest[r]).cast<double>();
+      starts.push_back(best);
+    }
+    for (const Pose& start : starts) {
+      const Pose candidate = refine_pose(map_, start, points);
+      const Eigen::Quaternionf q(Eigen::Quaterniond(candidate.linear()).cast<float>());
+      point_log_likelihoods(map_, plain, candidate.translation().cast<float>(), q, points, candidate_log);
+      double total = 0.0;
+      for (double l : candidate_log) total += l;
+      if (total > totals[r]) {
+        totals[r] = total;
+        refined[r] = candidate;
+        point_log[r].swap(candidate_log);
+      }
+    }
+    fits[r] = ray_fit(map_, refined[r], points, params_.inlier_distance, 0.4f, &observed[r]);
+  }
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    if (totals[r] > totals[reference]) reference = r;
+  }
+  // Between places, only the points that one place explains and the other does not are evidence: each point's
+  // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
+  // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
+  // and tenths of a degree by which their refined poses happen to differ; summed over hundreds of points and
+  // scans, those differences were a random walk that decided between identical places (within a few hundred
+  // scans in the symmetric test building). A feature only one of them has (a cabinet) still moves its points by
+  // the whole hit-versus-miss ratio of the model.
+  const double dead_band = evidence_dead_band();
+  // Only points with map evidence under both places count (scan_fit.hpp: paired_evidence): a point in a room the
+  // map never observed must not make the mapped look-alike of that room the better place.
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    const PairedEvidence paired =
+        paired_evidence(point_log[r], observed[r], point_log[reference], observed[reference], dead_band);
+    evidence[r] = (totals[reference] + paired.sum) / count;
+  }
+  {
+    const ParticleArrays p = evaluator_.particles();
+    const double to_plain = 1.0 / params_.sensor.weight_exponent;
+    for (std::size_t i = 0; i < n; ++i) weights_[i] = prior_log_weight_[i] + to_plain * p.log_weight[i];
+    const std::vector<double> with = group_log_sums(weights_.data(), group_.data(), n, h.size() + 1);
+    const std::vector<double> without = group_log_sums(prior_log_weight_.data(), group_.data(), n, h.size() + 1);
+    if (std::isfinite(with[h.size()]) && std::isfinite(without[h.size()])) {
+      evidence[h.size()] = (with[h.size()] - without[h.size()]) / count;
+    }
+  }
+  const double best = *std::max_element(evidence.begin(), evidence.end());
+  // Until the belief first concentrates, no more than the tempering lets the particles count (a spread, global
+  // belief: no early verdict between its modes); after, the tempering only keeps the particles of one tight mode
+  // from degenerating and says nothing about how far apart two places are.
+  const double per_point = step.tempering * params_.sensor.weight_exponent * count;
+  const double scale = params_.hypothesis_evidence_points <= 0.0 ? per_point
+                       : ever_concentrated_                      ? params_.hypothesis_evidence_points
+                                            : std::min(params_.hypothesis_evidence_points, per_point);
+  for (double& e : evidence) e = scale * (e - best);
+  group_share_ = reweight_groups(prior_log_weight_.data(), post_log_weight_.data(), group_.data(), n, evidence);
+  const double max =
+      *std::max_element(post_log_weight_.begin(), post_log_weight_.begin() + static_cast<std::ptrdiff_t>(n));
+  for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(post_log_weight_[i] - max);
+  step.ess = effective_sample_size(weights_.data(), n);
+
+  // Hypotheses ranked by their tempered shares, each with its fit.
+  std::vector<std::int32_t> rank(h.size());
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    h[r].weight = group_share_[r];
+    h[r].pose = refined[r];
+    h[r].inlier_ratio = fits[r].inlier_ratio();
+    h[r].coverage = fits[r].coverage();
+    h[r].see_through_ratio = fits[r].see_through_ratio();
+    rank[r] = static_cast<std::int32_t>(r);
+  }
+  std::stable_sort(rank.begin(), rank.end(), [&](std::int32_t a, std::int32_t b) {
+    return h[static_cast<std::size_t>(a)].weight > h[static_cast<std::size_t>(b)].weight;
+  });
+  std::vector<Hypothesis> sorted;
+  std::vector<std::int32_t> new_index(h.size() + 1, k);
+  std::vector<double> shares(h.size() + 1, group_share_[h.size()]);
+  for (std::size_t r = 0; r < rank.size(); ++r) {
+    sorted.push_back(h[static_cast<std::size_t>(rank[r])]);
+    new_index[static_cast<std::size_t>(rank[r])] = static_cast<std::int32_t>(r);
+    shares[r] = group_share_[static_cast<std::size_t>(rank[r])];
+  }
+  for (std::size_t i = 0; i < n; ++i) group_[i] = new_index[static_cast<std::size_t>(group_[i])];
+  top_log_.swap(point_log[static_cast<std::size_t>(rank[0])]);
+  top_observed_.swap(observed[static_cast<std::size_t>(rank[0])]);
+  group_share_ = shares;
+  h = std::move(sorted);
+
+  step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
+}
+
+bool ParticleFilter::map_judges_track() const {
+  constexpr double kMostOfTheScan = 0.75;
+  return !(estimate_.coverage < std::max(params_.convergence.min_coverage, kMostOfTheScan));
+}
+
+double ParticleFilter::judged_ratio() const {
+  if (trusted_track()) return estimate_.inlier_ratio;
+  return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
+}
+
+double ParticleFilter::evidence_dead_band() const {
+  return 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
+         static_cast<double>(params_.sensor.sigma_hit * params_.sensor.sigma_hit);
+}
+
+void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points,
+                                FilterStep& step) {
+  if (!keeper_.active() || estimate_.hypotheses.empty()) return;
+  const Hypothesis& top = estimate_.hypotheses.front();
+  const Pose continuation = refine_pose(map_, keeper_.predict(delta), points);
+  const ConvergenceOptions& c = params_.convergence;
+  const bool continues = (top.pose.translation() - continuation.translation()).norm() <= c.max_jump_m &&
+                         rotation_angle_between(top.pose.linear(), continuation.linear()) <= c.max_jump_rad;
+  double evidence = 0.0;
+  bool track_implausible = false;
+  RayFit fit;
+  if (!continues) {
+    // The challenger (the dominant hypothesis) against the track's continuation, point by point on the points
+    // both observe, in the units the hypotheses' shares move by (weigh_hypotheses).
+    EndpointModel plain = params_.sensor;
+    plain.weight_exponent = 1.0f;
+    std::vector<double> log;
+    const Eigen::Quaternionf q(Eigen::Quaterniond(continuation.linear()).cast<float>());
+    point_log_likelihoods(map_, plain, continuation.translation().cast<float>(), q, points, log);
+    std::vector<std::uint8_t> observed;
+    fit = ray_fit(map_, continuation, points, params_.inlier_distance, 0.4f, &observed);
+    const PairedEvidence e = paired_evidence(top_log_, top_observed_, log, observed, evidence_dead_band());
+    evidence = params_.hypothesis_evidence_points * e.sum / static_cast<double>(points.size());
+    track_implausible = params_.recovery_min_inliers > 0.0 && !(fit.coverage() < c.min_coverage) &&
+                        fit.inlier_ratio() < params_.recovery_min_inliers;
+  }
+  const TrackKeeper::Decision d = keeper_.update(delta, continuation, continues, top.pose, evidence, track_implausible);
+  step.challenge_evidence = keeper_.challenge_evidence();
+  step.challenge_travel = keeper_.challenge_travel();
+  if (d != TrackKeeper::Decision::kHold && d != TrackKeeper::Decision::kRestore) {
+    track_covariance_ = top.covariance;
+    return;
+  }
+  // Unproven: the estimate follows the track, carried by the odometry, its covariance growing by the motion
+  // noise of each update (refined on the scan where the map has something to say).
+  const MotionNoise noise = motion_noise(params_.motion, delta, dt);
+  const double horizontal = static_cast<double>(noise.sigma_along) * noise.sigma_along +
+                            static_cast<double>(noise.sigma_across) * noise.sigma_across;
+  track_covariance_(0, 0) += horizontal;
+  track_covariance_(1, 1) += horizontal;
+  track_covariance_(2, 2) += static_cast<double>(noise.sigma_vertical) * noise.sigma_vertical;
+  track_covariance_(3, 3) += static_cast<double>(noise.sigma_roll) * noise.sigma_roll;
+  track_covariance_(4, 4) += static_cast<double>(noise.sigma_pitch) * noise.sigma_pitch;
+  track_covariance_(5, 5) += static_cast<double>(noise.sigma_yaw) * noise.sigma_yaw;
+  estimate_.pose = continuation;
+  estimate_.covariance = track_covariance_;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> position(track_covariance_.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation(track_covariance_.bottomRightCorner<3, 3>());
+  estimate_.std_position = std::sqrt(std::max(position.eigenvalues().maxCoeff(), 0.0));
+  estimate_.std_rotation = std::sqrt(std::max(rotation.eigenvalues().maxCoeff(), 0.0));
+  estimate_.inlier_ratio = fit.inlier_ratio();
+  estimate_.coverage = fit.coverage();
+  estimate_.see_through_ratio = fit.see_through_ratio();
+  step.holding = true;
+  if (d == TrackKeeper::Decision::kRestore) restore_pending_ = true;
+}
+
+TrackState ParticleFilter::classify(const FilterStep& step) const {
+  if (step.implausible || step.random_share > 1.0 - params_.estimate.converged_weight) return TrackState::kLost;
+  if (estimate_.converged) return TrackState::kConverged;
+  if (trusted_track() && estimate_.coverage < params_.convergence.min_coverage) return TrackState::kUnmapped;
+  const std::vector<Hypothesis>& h = estimate_.hypotheses;
+  if (step.holding || step.challenged || (h.size() >= 2 && h[1].weight >= params_.ambiguous_weight))
+    return TrackState::kAmbiguous;
+  return keeper_.active() ? TrackState::kTracking : TrackState::kSearching;
+}
+
+double ParticleFilter::belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const {
+  const std::size_t begin = std::min(injected_begin_, n);
+  const std::size_t end = std::min(injected_end_, n);
+  if (begin == end || end - begin == n) return summary.fit_sum / static_cast<double>(n);
+  // The evaluator's definition of a particle's fit, over the particles outside [begin, end).
+  const FitConstants f = fit_constants(params_.sensor, points);
+  const ParticleArrays p = evaluator_.particles();
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i >= begin && i < end) continue;
+    sum += std::exp(static_cast<double>(p.log_weight[i]) * f.scale + f.offset);
+  }
+  return sum / static_cast<double>(n - (end - begin));
+}
+
+double ParticleFilter::judge_fit(FilterStep& step) {
+  // Absolute: once the belief has concentrated, a dominant hypothesis that explains too little of the scan
+  // is wrong, however steady (a running average that started at a wrong lock would call it normal).
+  // The ratio judged: over the points with map evidence while a track that was right carries on where the map
+  // covers enough of the scan; where it covers too little (unmapped space) no verdict. Without such a track, over
+  // all points: a place whose points fly out of the map is no better for it.
+  ever_concentrated_ = ever_concentrated_ || step.concentrated;
+  const bool covered = !(estimate_.coverage < params_.convergence.min_coverage);
+  const double ratio = judged_ratio();
+  const bool judged = !trusted_track() || map_judges_track();
+  // A belief that is not a trusted track and whose scan the map hardly covers is off the map, not in an unmapped
+  // room: a lost belief drifts there, where nothing speaks against it.
+  const bool off_map = !trusted_track() && !covered;
+  const bool implausible = params_.recovery_min_inliers > 0.0 && ever_concentrated_ && judged &&
+                           (ratio < params_.recovery_min_inliers || off_map);
+  implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
+  step.implausible = implausible;
+  if (implausible_streak_ < 2) return 0.0;
+  const double share = std::clamp(1.0 - ratio / params_.recovery_min_inliers, 0.0, 1.0);
+  return off_map ? std::max(share, 1.0 - estimate_.coverage / params_.convergence.min_coverage) : share;
+}
+
+}  // namespace tsdf_mcl
