@@ -28,7 +28,7 @@ LINKS = {
     "localizer": ["filter", "io", "backends"],
     "eval": ["io"],
     "sim": ["io"],
-    "render": ["map", "filter"],
+    "render": ["map"],
 }
 # Folders outside the library: their files may include any public header, but nothing under src/.
 FRONTENDS = ["tools", "tests", "bench", "fuzz", "ros", "python", "examples"]

@@ -150,6 +150,13 @@ ParticleSnapshot Localizer::snapshot() const {
     snapshot.particles[i].orientation = p.rotation(i);
     snapshot.particles[i].weight = static_cast<float>(w[i]);
   }
+  for (const Hypothesis& h : filter_->estimate().hypotheses) {
+    ParticleSnapshot::Particle m;
+    m.position = h.pose.translation().cast<float>();
+    m.orientation = Eigen::Quaternionf(Eigen::Quaterniond(h.pose.linear()).cast<float>());
+    m.weight = static_cast<float>(h.weight);
+    snapshot.hypotheses.push_back(m);
+  }
   return snapshot;
 }
 

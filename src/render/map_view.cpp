@@ -9,7 +9,6 @@
 
 #include "tsdf_mcl/core/checked_math.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/filter/pose_estimate.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -646,24 +645,15 @@ MapFigure render_map_view(const MapRaster& raster, const std::vector<TrajectoryO
 }
 
 std::vector<PoseMarker> hypothesis_markers(const ParticleSnapshot& snapshot) {
-  const std::size_t n = snapshot.particles.size();
-  if (n == 0) return {};
-  std::vector<float> soa(8 * n);
-  const ParticleArrays arrays = ParticleArrays::over(soa.data(), n);
-  std::vector<double> weights(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    arrays.set(i, snapshot.particles[i].position, snapshot.particles[i].orientation);
-    weights[i] = snapshot.particles[i].weight;
-  }
-  if (!(*std::max_element(weights.begin(), weights.end()) > 0.0)) return {};
-  PoseEstimator estimator{PoseEstimateOptions{}};
-  const PoseEstimate e = estimator.estimate(arrays, weights.data(), n);
   std::vector<PoseMarker> markers;
-  for (const Hypothesis& h : e.hypotheses) {
-    if (h.weight < 0.01 || markers.size() == 4) break;
+  for (const ParticleSnapshot::Particle& h : snapshot.hypotheses) {
+    if (h.weight < 0.01f || markers.size() == 4) break;
     char share[16];
     std::snprintf(share, sizeof(share), "%.0f %%", 100.0 * h.weight);
-    markers.push_back({h.pose, palette_color(0), markers.empty() ? "hypotheses (share of the weight)" : "", share});
+    Pose pose = Pose::Identity();
+    pose.translation() = h.position.cast<double>();
+    pose.linear() = h.orientation.cast<double>().toRotationMatrix();
+    markers.push_back({pose, palette_color(0), markers.empty() ? "hypotheses (share of the weight)" : "", share});
   }
   return markers;
 }

@@ -64,6 +64,10 @@ void write_inputs(const TempDir& dir) {
         {Vector3f(0.2f + 0.018f * i, 0.3f + 0.012f * i, 0.5f), Eigen::Quaternionf::Identity(), 1.0f});
     end.particles.push_back({Vector3f(3.2f, 1.6f, 0.5f), Eigen::Quaternionf::Identity(), 1.0f + static_cast<float>(i)});
   }
+  // The filter's hypotheses travel with the particles (localize writes them): one holding the whole belief, and
+  // one below the 1 % a picture marks.
+  end.hypotheses.push_back({Vector3f(3.2f, 1.6f, 0.5f), Eigen::Quaternionf::Identity(), 0.995f});
+  end.hypotheses.push_back({Vector3f(1.0f, 1.0f, 0.5f), Eigen::Quaternionf::Identity(), 0.005f});
   tsdf_mcl::write_particle_snapshot(dir / "start.part", start);
   tsdf_mcl::write_particle_snapshot(dir / "end.part", end);
 }
@@ -94,12 +98,14 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   panels[0].caption = "start  -  200 particles";
   panels[1].particles = tsdf_mcl::read_particle_snapshot(dir / "end.part");
   panels[1].caption = "end  -  200 particles";
-  // The command marks the hypotheses of each panel's belief: "end" has one, at its particles' place.
+  // The command marks the hypotheses each snapshot carries: "start" none, "end" one of its two (the other holds
+  // less than 1 %).
   panels[0].markers = tsdf_mcl::hypothesis_markers(panels[0].particles);
   panels[1].markers = tsdf_mcl::hypothesis_markers(panels[1].particles);
+  EXPECT_TRUE(panels[0].markers.empty());
   ASSERT_EQ(panels[1].markers.size(), 1u);
   EXPECT_LT((panels[1].markers[0].pose.translation() - Eigen::Vector3d(3.2, 1.6, 0.5)).norm(), 1e-5);
-  EXPECT_EQ(panels[1].markers[0].annotation, "100 %");
+  EXPECT_EQ(panels[1].markers[0].annotation, "100 %");  // 99.5 % as printed
   tsdf_mcl::MapViewOptions options;
   options.metres_per_pixel = 0.02;
   options.title = "small room";

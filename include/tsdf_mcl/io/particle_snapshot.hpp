@@ -4,10 +4,13 @@
 //
 // File layout, all little-endian:
 //   0  char[8]  magic "TSDFPART"
-//   8  uint32   format version (1)
+//   8  uint32   format version (2; version 1 files, without hypotheses, are read too)
 //  12  uint32   particle count N
-//  16  N records of 8 float32: x, y, z, qw, qx, qy, qz, weight (world_T_sensor; weights sum to 1)
-// The file size must be exactly 16 + 32 N bytes.
+//  16  uint32   hypothesis count H (version 2)
+//  20  N records of 8 float32: x, y, z, qw, qx, qy, qz, weight (world_T_sensor; weights sum to 1)
+//      H records of the same layout: the belief's hypotheses as the filter ranked them, best first, each at its
+//      mean pose with its share of the belief as the weight
+// The file size must be exactly 20 + 32 (N + H) bytes (version 1: 16 + 32 N).
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <filesystem>
@@ -22,6 +25,9 @@ struct ParticleSnapshot {
     float weight = 0.0f;
   };
   std::vector<Particle> particles;
+  // The belief's modes (pose_estimate.hpp) best first, weight = share of the belief: carried so that a viewer
+  // draws what the filter found without running the filter's estimator itself.
+  std::vector<Particle> hypotheses;
 };
 
 // Writes the snapshot with its weights normalized to sum 1, replacing the file only once it is complete. Throws

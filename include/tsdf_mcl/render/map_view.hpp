@@ -101,8 +101,9 @@ struct PoseMarker {
   std::string annotation{};  // written beside the arrow (e.g. "55 %"); empty = none
 };
 
-// The belief's hypotheses (modes) as the filter finds them (PoseEstimator): up to four holding at least 1 % of
-// the weight, each an arrow at its mean pose with its share written beside it ("two rooms, 55 % / 45 %").
+// The belief's hypotheses (modes) as the filter found them (the snapshot's, best first): up to four holding at
+// least 1 % of the weight, each an arrow at its mean pose with its share written beside it ("two rooms, 55 % /
+// 45 %"). A snapshot without hypotheses (format version 1) gets none.
 std::vector<PoseMarker> hypothesis_markers(const ParticleSnapshot& snapshot);
 
 // One panel: the map with the trajectories and its own particles and markers, captioned above.
