@@ -25,6 +25,7 @@
 #include "tsdf_mcl/localizer/localizer_parameters.hpp"
 #include "tsdf_mcl/localizer/planar_pose.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/map/map_surface.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {

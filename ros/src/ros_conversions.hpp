@@ -30,7 +30,4 @@ PointCloud cloud_from_msg(const sensor_msgs::PointCloud2& msg, const std::string
                           std::size_t* dropped_non_finite = nullptr);
 sensor_msgs::PointCloud2 msg_from_cloud(const PointCloud& cloud);
 
-// The map's surface for RViz: voxel centres within half a voxel of the surface, thinned to at most max_points.
-PointCloud map_surface(const TsdfMap& map, std::size_t max_points);
-
 }  // namespace tsdf_mcl::ros_node
