@@ -1,8 +1,10 @@
 // Import of the HDF5 maps written for the reference implementation (uos/tsdf_localization): group /map, one
 // dataset of 64^3 uint32 per chunk, named "cx_cy_cz"; word = int16 TSDF in mm (low half) | int16 weight (high).
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <limits>
@@ -14,6 +16,7 @@
 #include "build_budget.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/io/isolated_call.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 
 namespace tsdf_mcl {
@@ -185,6 +188,31 @@ TsdfMap import_reference_h5(const fs::path& file, float truncation, std::uint64_
   }
   map.compact();
   return map;
+}
+
+TsdfMap import_reference_h5_isolated(const fs::path& file, float truncation, std::uint64_t max_memory_bytes,
+                                     const fs::path& scratch_dir) {
+  static std::atomic<unsigned> calls{0};
+  const fs::path scratch =
+      (scratch_dir.empty() ? fs::temp_directory_path() : scratch_dir) /
+      ("tsdf_mcl_h5_import." + std::to_string(::getpid()) + "." + std::to_string(calls++) + ".tsdf");
+  // Removed however the import ends (the child may have written it before a later failure).
+  struct Remove {
+    const fs::path& file;
+    ~Remove() {
+      std::error_code ec;
+      fs::remove(file, ec);
+    }
+  } remove{scratch};
+  call_isolated(
+      [&] {
+        save_map(import_reference_h5(file, truncation, max_memory_bytes), scratch);
+        return std::string();
+      },
+      [&](const std::string& how) {
+        return file.string() + ": the HDF5 library crashed reading it (" + how + "): the file is corrupt";
+      });
+  return load_map(scratch);
 }
 
 }  // namespace tsdf_mcl

@@ -79,6 +79,12 @@ TEST(H5Import, ReadsChunksWithNegativeIndicesAndUnknowns) {
   write_h5(dir / "ref.h5", {chunk("0_0_0", a), chunk("-1_0_0", b), {"0_1_-1", {kN * kN * kN}, H5T_STD_I32LE, c}});
 
   const TsdfMap map = tsdf_mcl::import_reference_h5(dir / "ref.h5", 0.6f);
+  // In a child process (as the CLI imports): the same map, and no scratch file left beside the input.
+  const TsdfMap isolated = tsdf_mcl::import_reference_h5_isolated(
+      dir / "ref.h5", 0.6f, std::uint64_t{tsdf_mcl::limits::kDefaultBuildMemoryMiB} << 20, dir.path());
+  EXPECT_EQ(isolated.coarse_index(), map.coarse_index());
+  EXPECT_EQ(isolated.block_pool(), map.block_pool());
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), std::filesystem::directory_iterator()), 1);
   EXPECT_FLOAT_EQ(map.voxel_size(), 0.064f);
   EXPECT_FLOAT_EQ(map.truncation(), 0.6f);
   EXPECT_EQ(map.min_block(), Vector3i(-8, 0, -8));

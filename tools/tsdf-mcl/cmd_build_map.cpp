@@ -1,7 +1,3 @@
-#include <fcntl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -23,60 +19,10 @@
 namespace tsdf_mcl::cli {
 namespace {
 
-constexpr int kImportError = 2;  // the child's exit status for an import error it words itself
 // The valid --voxel and --truncation (m): a map of 2 m voxels locates nothing; a band of more than 64 voxels or
 // 10 m makes every ray cost thousands of voxel updates.
 constexpr double kMinVoxel = 0.005, kMaxVoxel = 2.0;
 constexpr double kMaxTruncationVoxels = 64.0, kMaxTruncation = 10.0;
-
-// libhdf5 itself can crash on a crafted file (tests/data/libhdf5_crash_local_heap.h5) before any of our checks see
-// data, so the import runs in a child process: a crash there is one error line here, not a dead command.
-TsdfMap import_h5_isolated(const std::string& source, float truncation, std::uint64_t max_memory,
-                           const std::filesystem::path& scratch) {
-  int pipe_fds[2];
-  if (pipe(pipe_fds) != 0) throw Error(std::string("cannot isolate the HDF5 import: ") + std::strerror(errno));
-  std::fflush(nullptr);
-  const pid_t child = fork();
-  if (child < 0) throw Error(std::string("cannot isolate the HDF5 import: ") + std::strerror(errno));
-  if (child == 0) {
-    close(pipe_fds[0]);
-    // The library's own diagnostics (its error stack, or a sanitizer's crash report) are not this command's
-    // one-line error: the parent words it.
-    const int null_fd = open("/dev/null", O_WRONLY);
-    if (null_fd >= 0) dup2(null_fd, STDERR_FILENO);
-    std::string message;
-    try {
-      save_map(import_reference_h5(source, truncation, max_memory), scratch);
-      _exit(0);
-    } catch (const std::exception& e) {
-      message = e.what();
-    }
-    const ssize_t written = write(pipe_fds[1], message.data(), message.size());
-    _exit(written >= 0 ? kImportError : kImportError + 1);
-  }
-  close(pipe_fds[1]);
-  std::string message;
-  char buffer[512];
-  for (ssize_t got; (got = read(pipe_fds[0], buffer, sizeof(buffer))) > 0;)
-    message.append(buffer, static_cast<std::size_t>(got));
-  close(pipe_fds[0]);
-  int status = 0;
-  while (waitpid(child, &status, 0) < 0 && errno == EINTR) {
-  }
-  std::error_code ec;
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
-    TsdfMap map = load_map(scratch);
-    std::filesystem::remove(scratch, ec);
-    return map;
-  }
-  std::filesystem::remove(scratch, ec);
-  if (WIFEXITED(status) && WEXITSTATUS(status) == kImportError && !message.empty()) throw Error(message);
-  // Anything else is a crash: a signal, or a sanitizer's exit after catching one.
-  const std::string how = WIFSIGNALED(status)
-                              ? "signal " + std::to_string(WTERMSIG(status))
-                              : "exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
-  throw Error(source + ": the HDF5 library crashed reading it (" + how + "): the file is corrupt");
-}
 
 namespace fs = std::filesystem;
 
@@ -224,8 +170,9 @@ int run_build_map(int argc, char** argv) {
   std::string source;
   if (h5) {
     source = o.text("import_h5");
-    map = import_h5_isolated(source, static_cast<float>(truncation), max_memory,
-                             output.string() + ".import-" + std::to_string(getpid()) + ".tmp");
+    // Beside the output: the scratch map is as large as the map, which the system's temporary folder may not hold.
+    map = import_reference_h5_isolated(source, static_cast<float>(truncation), max_memory,
+                                       std::filesystem::absolute(output).parent_path());
   } else if (o.has("mesh")) {
     source = o.text("mesh");
     const TriangleMesh mesh = load_mesh(source);

@@ -9,14 +9,10 @@
 // process, which hands its results back through a pipe: a crash there is one error line here. The parent then
 // only opens the bag's index and reads, scan by scan, messages the child has already read whole.
 #include <console_bridge/console.h>
-#include <fcntl.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -28,6 +24,7 @@
 
 #include "tsdf_mcl/core/little_endian.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
+#include "tsdf_mcl/io/isolated_call.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
@@ -534,63 +531,13 @@ BagContents decode(const std::string& bytes) {
   return c;
 }
 
-void write_all(int fd, const std::string& bytes) {
-  for (std::size_t done = 0; done < bytes.size();) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;
-    done += static_cast<std::size_t>(n);
-  }
-}
-
-// read_contents in a child process: its answer (a byte 1 and the contents, or 0 and the error message) comes back
-// through a pipe; a crash inside rosbag_storage is an Error here.
+// read_contents in a child process (isolated_call.hpp): a crash inside rosbag_storage is an Error here.
 BagContents read_contents_isolated(const fs::path& file, const BagOptions& options) {
-  int fds[2];
-  if (::pipe(fds) != 0) throw Error(std::string("cannot start the bag reader: ") + std::strerror(errno));
-  std::fflush(nullptr);
-  const pid_t child = ::fork();
-  if (child < 0) {
-    ::close(fds[0]);
-    ::close(fds[1]);
-    throw Error(std::string("cannot start the bag reader: ") + std::strerror(errno));
-  }
-  if (child == 0) {
-    ::close(fds[0]);
-    // Whatever a library or a sanitizer prints is not this command's one-line error: the parent words it.
-    const int null_fd = ::open("/dev/null", O_WRONLY);
-    if (null_fd >= 0) ::dup2(null_fd, STDERR_FILENO);
-    std::string answer;
-    try {
-      answer = std::string(1, '\1') + encode(read_contents(file, options));
-    } catch (const std::exception& e) {
-      answer = std::string(1, '\0') + e.what();
-    }
-    write_all(fds[1], answer);
-    ::close(fds[1]);
-    ::_exit(0);
-  }
-  ::close(fds[1]);
-  std::string answer;
-  char buffer[65536];
-  for (;;) {
-    const ssize_t n = ::read(fds[0], buffer, sizeof(buffer));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    answer.append(buffer, static_cast<std::size_t>(n));
-  }
-  ::close(fds[0]);
-  int status = 0;
-  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || answer.empty()) {
-    const std::string how = WIFSIGNALED(status)
-                                ? "signal " + std::to_string(WTERMSIG(status))
-                                : "exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
-    throw Error(file.string() + ": corrupt ROS bag (rosbag_storage crashed reading it: " + how + ")");
-  }
-  if (answer[0] == '\0') throw Error(answer.substr(1));
-  return decode(answer.substr(1));
+  return decode(call_isolated([&] { return encode(read_contents(file, options)); },
+                              [&](const std::string& how) {
+                                return file.string() + ": corrupt ROS bag (rosbag_storage crashed reading it: " + how +
+                                       ")";
+                              }));
 }
 
 // ------------------------------------------------------------------------------------- the scans
