@@ -373,6 +373,12 @@ bool LocalizationNode::note_time_locked(const ros::Time* scan_stamp) {
   return true;
 }
 
+bool LocalizationNode::stale_locked(double last, double incoming) const {
+  // Time went back, and a message from before the jump reached this queue after it was cleared (another
+  // connection, a loaded machine): without this, every later message would look out of order behind it.
+  return incoming < last && newest_ && last - newest_->toSec() > kTimeJumpSeconds;
+}
+
 void LocalizationNode::restart_after_time_jump() {
   // A new Localizer: its particles, motion reference and IMU history all belong to the time before the jump.
   localizer_ = std::make_unique<Localizer>(map_, options_);
@@ -406,6 +412,9 @@ void LocalizationNode::on_odometry(const nav_msgs::OdometryConstPtr& msg) {
     return;
   }
   note_time_locked(nullptr);
+  if (!odometry_.empty() && stale_locked(odometry_.back().header.stamp.toSec(), msg->header.stamp.toSec())) {
+    odometry_.clear();
+  }
   if (!odometry_.empty() && msg->header.stamp <= odometry_.back().header.stamp) {
     reject_locked("odometry on " + settings_.odom_topic + " stamped " + std::to_string(msg->header.stamp.toSec()) +
                   " s, not after the previous message (" + std::to_string(odometry_.back().header.stamp.toSec()) +
@@ -415,6 +424,7 @@ void LocalizationNode::on_odometry(const nav_msgs::OdometryConstPtr& msg) {
   odometry_.push_back(*msg);
   while (!odometry_.empty() && (msg->header.stamp - odometry_.front().header.stamp).toSec() > kOdometryKeepSeconds)
     odometry_.pop_front();
+  odometry_cv_.notify_all();
 }
 
 void LocalizationNode::on_imu(const sensor_msgs::ImuConstPtr& msg) {
@@ -440,6 +450,10 @@ void LocalizationNode::on_imu(const sensor_msgs::ImuConstPtr& msg) {
   s.acceleration = base_T_imu->rotation() * a;
   std::lock_guard<std::mutex> lock(mutex_);
   note_time_locked(nullptr);
+  if (last_imu_time_ && stale_locked(*last_imu_time_, s.time)) {
+    imu_.clear();
+    last_imu_time_.reset();
+  }
   if (last_imu_time_ && !(s.time > *last_imu_time_)) {
     reject_locked("IMU on " + settings_.imu_topic + " stamped " + std::to_string(s.time) +
                   " s, not after the previous sample (" + std::to_string(*last_imu_time_) + " s)");
@@ -571,7 +585,12 @@ std::optional<Pose> LocalizationNode::odometry_at(const ros::Time& stamp, std::s
     }
     return pose;
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  // Like a tf lookup, wait up to tf_timeout of wall time for odometry at the scan's stamp: on a loaded machine the
+  // scan may be handled before the odometry sent just before it (another connection).
+  std::unique_lock<std::mutex> lock(mutex_);
+  odometry_cv_.wait_for(lock, std::chrono::duration<double>(settings_.tf_timeout), [&] {
+    return time_jump_pending_ || (!odometry_.empty() && odometry_.back().header.stamp >= stamp);
+  });
   if (odometry_.empty()) {
     *error = "no odometry on " + settings_.odom_topic + " yet (is it published?)";
     return std::nullopt;

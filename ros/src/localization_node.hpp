@@ -108,6 +108,10 @@ class LocalizationNode {
   // (the caller holds mutex_). Returns true on such a jump.
   bool note_time_locked(const ros::Time* scan_stamp);
   void restart_after_time_jump();
+  // Whether a queue whose last message is stamped `last` holds messages from before a time jump, seen from a message
+  // stamped `incoming` (older than `last`): `last` lies more than kTimeJumpSeconds after the newest scan (the caller
+  // holds mutex_).
+  bool stale_locked(double last, double incoming) const;
   template <typename Add>
   void add_rejections(const Add& add);
 
@@ -129,6 +133,7 @@ class LocalizationNode {
   std::condition_variable cv_;
   std::vector<PendingCloud> latest_;  // per topic
   std::deque<nav_msgs::Odometry> odometry_;
+  std::condition_variable odometry_cv_;  // a new odometry message (odometry_at waits for one)
   std::deque<ImuSample> imu_;
   std::optional<geometry_msgs::PoseWithCovarianceStamped> initial_pose_request_;
   bool global_request_ = false;

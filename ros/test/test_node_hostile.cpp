@@ -49,17 +49,25 @@ class Listener {
   void on_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     poses_[m->header.stamp] = *m;
+    cv_.notify_all();
   }
   std::optional<diagnostic_msgs::DiagnosticStatus> wait_status(const ros::Time& stamp, std::chrono::seconds timeout) {
     std::unique_lock<std::mutex> lock(mutex_);
     if (!cv_.wait_for(lock, timeout, [&] { return statuses_.count(stamp) > 0; })) return std::nullopt;
     return statuses_.at(stamp);
   }
-  std::optional<geometry_msgs::PoseWithCovarianceStamped> pose(const ros::Time& stamp) {
+  // The pose for a scan, waiting for it: the node publishes it before the scan's status, but on another topic,
+  // so it may reach this process after the status. For a scan that got no pose, check its status first: then a pose
+  // that has not arrived will not (no wait needed).
+  std::optional<geometry_msgs::PoseWithCovarianceStamped> pose(const ros::Time& stamp,
+                                                               std::chrono::seconds timeout = 60s) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!cv_.wait_for(lock, timeout, [&] { return poses_.count(stamp) > 0; })) return std::nullopt;
+    return poses_.at(stamp);
+  }
+  bool has_pose(const ros::Time& stamp) {
     std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = poses_.find(stamp);
-    if (it == poses_.end()) return std::nullopt;
-    return it->second;
+    return poses_.count(stamp) > 0;
   }
 
  private:
@@ -223,7 +231,7 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   EXPECT_NE(s.message.find("no transform base_link -> lidar"), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("static_transform_publisher"), std::string::npos) << s.message;
   EXPECT_EQ(s.message.find('\n'), std::string::npos);
-  EXPECT_FALSE(listener.pose(ros::Time(now)));
+  EXPECT_FALSE(listener.has_pose(ros::Time(now)));
 
   // 2. The extrinsic appears (latched, as a robot_state_publisher started late sends it): the node recovers.
   tf2_msgs::TFMessage statics;
@@ -291,7 +299,7 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   EXPECT_EQ(s.level, kError);
   EXPECT_NE(s.message.find("no transform base_link -> lidar_c"), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("~sensor_extrinsics/lidar_c"), std::string::npos) << s.message;
-  EXPECT_FALSE(listener.pose(ros::Time(now)));
+  EXPECT_FALSE(listener.has_pose(ros::Time(now)));
   cloud.header.frame_id = "lidar";
   s = scan();
   EXPECT_NE(s.level, kError) << s.message;
@@ -299,7 +307,8 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
 
   // 5. A burst: 30 scans at once (a bag played fast, a driver flushing its queue). The node does not fall behind: it
   //    keeps the newest waiting scan (older ones count as skipped, or the subscriber queue drops them) and answers
-  //    the last one.
+  //    the last one: with a pose, or, where the burst's odometry is still on its way after tf_timeout (a loaded
+  //    machine), with the odometry error; either way it goes on.
   const std::size_t before_burst = count(s, "processed_scans");
   for (int i = 0; i < 30; ++i) {
     now += 0.01;
@@ -311,16 +320,21 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   const auto after_burst = listener.wait_status(ros::Time(now), 60s);
   ASSERT_TRUE(after_burst) << "no status for the burst's last scan; see " << dir / "node.log";
   s = *after_burst;
-  EXPECT_NE(s.level, kError) << s.message;
-  EXPECT_GT(count(s, "processed_scans"), before_burst);
+  if (s.level == kError) {
+    EXPECT_NE(s.message.find("no odometry on /odom at the scan"), std::string::npos) << s.message;
+  } else {
+    EXPECT_TRUE(listener.pose(ros::Time(now)));
+  }
   EXPECT_LE(count(s, "processed_scans"), before_burst + 30);
   ASSERT_TRUE(node.running());
+  s = scan_until([](const auto& st) { return st.level != kError; });
+  EXPECT_GT(count(s, "processed_scans"), before_burst);
 
   // 6. Odometry stalls while scans go on: within tf_timeout (0.2 s) of the last message the node uses it, beyond
   //    that the status says the odometry stalled and no pose is published; odometry back, the node goes on.
   s = scan_until([](const auto& st) { return st.level == kError; }, /*with_odometry=*/false);
   EXPECT_NE(s.message.find("odometry stalled"), std::string::npos) << s.message;
-  EXPECT_FALSE(listener.pose(ros::Time(now)));
+  EXPECT_FALSE(listener.has_pose(ros::Time(now)));
   s = scan_until([](const auto& st) { return st.level != kError; });
   EXPECT_TRUE(listener.pose(ros::Time(now)));
 
