@@ -253,185 +253,222 @@ PoseSeries read_pose_topic(rosbag::Bag& bag, const fs::path& file, const std::st
 
 // ------------------------------------------------------------------------------------------- the pass
 
-BagContents read_contents(const fs::path& file, const BagOptions& options) {
-  rosbag::Bag bag;
-  open_read(bag, file);
-  const std::map<std::string, TopicInfo> topics = topics_of(bag, file);
-  const std::string name = file.string();
-
-  // Scans: header stamps and frames, in the bag's order.
-  BagContents out;
-  out.points_topic = require_topic(topics, file, options.points_topic, "the points topic", {ros1::kPointCloud2});
-  std::vector<double> stamps;
-  std::string cloud_frame;
-  for_each_message(bag, file, out.points_topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
-    const std::string what = message_name(file, out.points_topic, k);
-    const ros1::Header h = ros1::decode_header(data, size, what);
-    if (k == 0) {
-      cloud_frame = h.frame_id;
-    } else if (h.frame_id != cloud_frame) {
-      throw Error(what + " is in frame " + in_quotes(h.frame_id) + ", the first scan in " + in_quotes(cloud_frame));
-    }
-    const double t = h.stamp();
-    if (!stamps.empty() && !(t > stamps.back())) {
-      throw Error("bag " + name + ": scans out of order on " + out.points_topic + ": scan " + std::to_string(k) +
-                  " is stamped " + seconds(t) + " s, not after scan " + std::to_string(k - 1) + " (" +
-                  seconds(stamps.back()) + " s)");
-    }
-    stamps.push_back(t);
-  });
-  if (stamps.empty()) throw Error("bag " + name + ": topic " + out.points_topic + " holds no messages");
-
-  // tf: /tf dynamic, /tf_static static; either may be absent.
-  TransformTree tree;
-  std::vector<std::string> tf_topics;
-  for (const auto& [wanted, is_static] :
-       {std::pair{options.tf_topic, false}, std::pair{options.tf_static_topic, true}}) {
-    if (wanted.empty() || find_topic(topics, wanted).empty()) continue;
-    const std::string topic =
-        require_topic(topics, file, wanted, is_static ? "static tf" : "tf", {ros1::kTfMessage, ros1::kOldTfMessage});
-    tf_topics.push_back(topic);
-    const bool static_topic = is_static;
-    for_each_message(bag, file, topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
-      const std::string what = message_name(file, topic, k);
-      for (const ros1::TransformStamped& t : ros1::decode_tf_message(data, size, what)) {
-        try {
-          tree.add(t.header.frame_id, t.child_frame_id, t.header.stamp(), t.transform, static_topic);
-        } catch (const Error& e) {
-          throw Error(what + ": " + e.what());
-        }
-      }
-    });
+// read_contents' stages over one open bag, in order; each fills its part of the contents.
+class ContentsReader {
+ public:
+  ContentsReader(const fs::path& file, const BagOptions& options)
+      : file_(file), options_(options), name_(file.string()) {
+    open_read(bag_, file);
+    topics_ = topics_of(bag_, file);
   }
-  const auto tf_error = [&](const Error& e) { return Error("bag " + name + ": " + e.what()); };
-  const auto needs_cloud_frame = [&](const std::string& why) {
-    if (cloud_frame.empty()) {
-      throw Error("bag " + name + ": the scans on " + out.points_topic + " have no header.frame_id, which " + why +
+
+  BagContents read() {
+    read_scan_headers();
+    read_tf();
+    find_odometry_and_truth();
+    place_scans();
+    read_imu();
+    summarize();
+    return std::move(out_);
+  }
+
+ private:
+  void read_scan_headers() {
+    // Scans: header stamps and frames, in the bag's order.
+    out_.points_topic = require_topic(topics_, file_, options_.points_topic, "the points topic", {ros1::kPointCloud2});
+    for_each_message(bag_, file_, out_.points_topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
+      const std::string what = message_name(file_, out_.points_topic, k);
+      const ros1::Header h = ros1::decode_header(data, size, what);
+      if (k == 0) {
+        cloud_frame_ = h.frame_id;
+      } else if (h.frame_id != cloud_frame_) {
+        throw Error(what + " is in frame " + in_quotes(h.frame_id) + ", the first scan in " + in_quotes(cloud_frame_));
+      }
+      const double t = h.stamp();
+      if (!stamps_.empty() && !(t > stamps_.back())) {
+        throw Error("bag " + name_ + ": scans out of order on " + out_.points_topic + ": scan " + std::to_string(k) +
+                    " is stamped " + seconds(t) + " s, not after scan " + std::to_string(k - 1) + " (" +
+                    seconds(stamps_.back()) + " s)");
+      }
+      stamps_.push_back(t);
+    });
+    if (stamps_.empty()) throw Error("bag " + name_ + ": topic " + out_.points_topic + " holds no messages");
+  }
+
+  void read_tf() {
+    // tf: /tf dynamic, /tf_static static; either may be absent.
+    std::vector<std::string> tf_topics;
+    for (const auto& [wanted, is_static] :
+         {std::pair{options_.tf_topic, false}, std::pair{options_.tf_static_topic, true}}) {
+      if (wanted.empty() || find_topic(topics_, wanted).empty()) continue;
+      const std::string topic = require_topic(topics_, file_, wanted, is_static ? "static tf" : "tf",
+                                              {ros1::kTfMessage, ros1::kOldTfMessage});
+      tf_topics.push_back(topic);
+      const bool static_topic = is_static;
+      for_each_message(bag_, file_, topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
+        const std::string what = message_name(file_, topic, k);
+        for (const ros1::TransformStamped& t : ros1::decode_tf_message(data, size, what)) {
+          try {
+            tree_.add(t.header.frame_id, t.child_frame_id, t.header.stamp(), t.transform, static_topic);
+          } catch (const Error& e) {
+            throw Error(what + ": " + e.what());
+          }
+        }
+      });
+    }
+  }
+
+  Error tf_error(const Error& e) const { return Error("bag " + name_ + ": " + e.what()); }
+  void needs_cloud_frame(const std::string& why) const {
+    if (cloud_frame_.empty()) {
+      throw Error("bag " + name_ + ": the scans on " + out_.points_topic + " have no header.frame_id, which " + why +
                   " needs");
     }
-  };
-
-  // Odometry: a topic, or tf odom_frame -> base_frame.
-  std::optional<PoseSeries> odom_series;
-  bool odom_from_tf = false;
-  std::string odometry_note;
-  if (!options.odom_topic.empty()) {
-    const std::string topic = require_topic(topics, file, options.odom_topic, "the odometry topic", {ros1::kOdometry});
-    odom_series = read_pose_topic(bag, file, topic, topics.at(topic), options.base_frame);
-    odometry_note =
-        "odometry from " + topic + " (" + in_quotes(odom_series->parent) + " -> " + in_quotes(odom_series->child) + ")";
-  } else if (tree.has_frame(options.odom_frame)) {
-    odom_from_tf = true;
-    odometry_note = "odometry from tf " + in_quotes(options.odom_frame) + " -> " + in_quotes(options.base_frame);
-  } else {
-    out.missing_odometry = "bag " + name + " has no odometry: no tf frame " + in_quotes(options.odom_frame) +
-                           " (--odom_frame) and no --odom_topic";
   }
 
-  // Ground truth: world_T_child from a topic.
-  std::optional<PoseSeries> truth;
-  if (!options.ground_truth_topic.empty()) {
-    const std::string topic = require_topic(topics, file, options.ground_truth_topic, "the ground truth topic",
-                                            {ros1::kOdometry, ros1::kPoseStamped});
-    truth = read_pose_topic(bag, file, topic, topics.at(topic), options.base_frame);
-  } else {
-    out.missing_poses = "bag " + name + " has no ground truth (--ground_truth_topic)";
+  void find_odometry_and_truth() {
+    // Odometry: a topic, or tf odom_frame -> base_frame.
+    if (!options_.odom_topic.empty()) {
+      const std::string topic =
+          require_topic(topics_, file_, options_.odom_topic, "the odometry topic", {ros1::kOdometry});
+      odom_series_ = read_pose_topic(bag_, file_, topic, topics_.at(topic), options_.base_frame);
+      odometry_note_ = "odometry from " + topic + " (" + in_quotes(odom_series_->parent) + " -> " +
+                       in_quotes(odom_series_->child) + ")";
+    } else if (tree_.has_frame(options_.odom_frame)) {
+      odom_from_tf_ = true;
+      odometry_note_ = "odometry from tf " + in_quotes(options_.odom_frame) + " -> " + in_quotes(options_.base_frame);
+    } else {
+      out_.missing_odometry = "bag " + name_ + " has no odometry: no tf frame " + in_quotes(options_.odom_frame) +
+                              " (--odom_frame) and no --odom_topic";
+    }
+
+    // Ground truth: world_T_child from a topic.
+    if (!options_.ground_truth_topic.empty()) {
+      const std::string topic = require_topic(topics_, file_, options_.ground_truth_topic, "the ground truth topic",
+                                              {ros1::kOdometry, ros1::kPoseStamped});
+      truth_ = read_pose_topic(bag_, file_, topic, topics_.at(topic), options_.base_frame);
+    } else {
+      out_.missing_poses = "bag " + name_ + " has no ground truth (--ground_truth_topic)";
+    }
   }
 
-  // Per scan: odom_T_sensor and world_T_sensor, where every source covers the stamp; scans outside are left out.
-  std::pair<double, double> range{-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
-  const auto narrow = [&](std::pair<double, double> r) {
-    range.first = std::max(range.first, r.first);
-    range.second = std::min(range.second, r.second);
-  };
-  if (odom_from_tf || odom_series) needs_cloud_frame("odometry");
-  if (truth) needs_cloud_frame("ground truth");
-  try {
-    if (odom_from_tf) {
-      narrow(tree.coverage(options.odom_frame, options.base_frame));
-      narrow(tree.coverage(options.base_frame, cloud_frame));
-    }
-    if (odom_series) {
-      narrow({odom_series->samples.front().first, odom_series->samples.back().first});
-      narrow(tree.coverage(odom_series->child, cloud_frame));
-    }
-    if (truth) {
-      narrow({truth->samples.front().first, truth->samples.back().first});
-      narrow(tree.coverage(truth->child, cloud_frame));
-    }
-  } catch (const Error& e) {
-    throw tf_error(e);
-  }
-  std::size_t before = 0, after = 0;
-  for (std::size_t k = 0; k < stamps.size(); ++k) {
-    const double t = stamps[k];
-    if (t < range.first - 1e-9) {
-      ++before;
-      continue;
-    }
-    if (t > range.second + 1e-9) {
-      ++after;
-      continue;
-    }
-    out.scan_ordinals.push_back(k);
-    out.times.push_back(t);
-    if (odom_from_tf) {
-      out.odometry.push_back(tree.lookup(options.odom_frame, options.base_frame, t) *
-                             tree.lookup(options.base_frame, cloud_frame, t));
-    } else if (odom_series) {
-      out.odometry.push_back(odom_series->at(t) * tree.lookup(odom_series->child, cloud_frame, t));
-    }
-    if (truth) out.poses.push_back(truth->at(t) * tree.lookup(truth->child, cloud_frame, t));
-  }
-  if (out.times.empty()) {
-    throw Error("bag " + name + ": none of the " + std::to_string(stamps.size()) + " scans (" +
-                seconds(stamps.front()) + ".." + seconds(stamps.back()) +
-                " s) lies within the times of the odometry and ground truth (" + seconds(range.first) + ".." +
-                seconds(range.second) + " s)");
-  }
-
-  // IMU: specific force rotated into the clouds' frame.
-  std::string imu_note;
-  if (!options.imu_topic.empty()) {
-    const std::string topic = require_topic(topics, file, options.imu_topic, "the IMU topic", {ros1::kImu});
-    std::size_t outside = 0;
-    std::map<std::string, std::pair<double, double>> cover;  // per IMU frame, where tf reaches the clouds' frame
-    for_each_message(bag, file, topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
-      const std::string what = message_name(file, topic, k);
-      const ros1::Imu m = ros1::decode_imu(data, size, what);
-      const std::string frame = m.header.frame_id.empty() ? cloud_frame : m.header.frame_id;
-      const double t = m.header.stamp();
-      if (frame != cloud_frame) needs_cloud_frame("the IMU");
-      try {
-        auto it = cover.find(frame);
-        if (it == cover.end()) it = cover.emplace(frame, tree.coverage(cloud_frame, frame)).first;
-        if (t < it->second.first - 1e-9 || t > it->second.second + 1e-9) {
-          ++outside;
-          return;
-        }
-        out.imu.push_back({t, tree.lookup(cloud_frame, frame, t).linear() * m.linear_acceleration});
-      } catch (const Error& e) {
-        throw tf_error(e);
+  void place_scans() {
+    // Per scan: odom_T_sensor and world_T_sensor, where every source covers the stamp; scans outside are left out.
+    std::pair<double, double> range{-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    const auto narrow = [&](std::pair<double, double> r) {
+      range.first = std::max(range.first, r.first);
+      range.second = std::min(range.second, r.second);
+    };
+    if (odom_from_tf_ || odom_series_) needs_cloud_frame("odometry");
+    if (truth_) needs_cloud_frame("ground truth");
+    try {
+      if (odom_from_tf_) {
+        narrow(tree_.coverage(options_.odom_frame, options_.base_frame));
+        narrow(tree_.coverage(options_.base_frame, cloud_frame_));
       }
-    });
-    std::stable_sort(out.imu.begin(), out.imu.end(),
-                     [](const ImuSample& a, const ImuSample& b) { return a.time < b.time; });
-    imu_note = "; " + std::to_string(out.imu.size()) + " IMU samples from " + topic;
-    if (outside > 0) imu_note += " (" + std::to_string(outside) + " outside the tf to the clouds' frame left out)";
+      if (odom_series_) {
+        narrow({odom_series_->samples.front().first, odom_series_->samples.back().first});
+        narrow(tree_.coverage(odom_series_->child, cloud_frame_));
+      }
+      if (truth_) {
+        narrow({truth_->samples.front().first, truth_->samples.back().first});
+        narrow(tree_.coverage(truth_->child, cloud_frame_));
+      }
+    } catch (const Error& e) {
+      throw tf_error(e);
+    }
+    for (std::size_t k = 0; k < stamps_.size(); ++k) {
+      const double t = stamps_[k];
+      if (t < range.first - 1e-9) {
+        ++before_;
+        continue;
+      }
+      if (t > range.second + 1e-9) {
+        ++after_;
+        continue;
+      }
+      out_.scan_ordinals.push_back(k);
+      out_.times.push_back(t);
+      if (odom_from_tf_) {
+        out_.odometry.push_back(tree_.lookup(options_.odom_frame, options_.base_frame, t) *
+                                tree_.lookup(options_.base_frame, cloud_frame_, t));
+      } else if (odom_series_) {
+        out_.odometry.push_back(odom_series_->at(t) * tree_.lookup(odom_series_->child, cloud_frame_, t));
+      }
+      if (truth_) out_.poses.push_back(truth_->at(t) * tree_.lookup(truth_->child, cloud_frame_, t));
+    }
+    if (out_.times.empty()) {
+      throw Error("bag " + name_ + ": none of the " + std::to_string(stamps_.size()) + " scans (" +
+                  seconds(stamps_.front()) + ".." + seconds(stamps_.back()) +
+                  " s) lies within the times of the odometry and ground truth (" + seconds(range.first) + ".." +
+                  seconds(range.second) + " s)");
+    }
   }
 
-  out.summary = "bag " + name + ": " + std::to_string(out.times.size()) + " scans on " + out.points_topic + " (frame " +
-                in_quotes(cloud_frame) + ", " + seconds(out.times.front()) + ".." + seconds(out.times.back()) +
-                " s); " + (odometry_note.empty() ? "no odometry" : odometry_note) + "; " +
-                (truth ? "ground truth from " + truth->topic + " (" + in_quotes(truth->parent) + " -> " +
-                             in_quotes(truth->child) + ")"
-                       : "no ground truth") +
-                imu_note;
-  if (before + after > 0) {
-    out.summary += "; left out " + std::to_string(before) + " scans before and " + std::to_string(after) +
-                   " after the odometry / ground truth";
+  void read_imu() {
+    // IMU: specific force rotated into the clouds' frame.
+    if (!options_.imu_topic.empty()) {
+      const std::string topic = require_topic(topics_, file_, options_.imu_topic, "the IMU topic", {ros1::kImu});
+      std::size_t outside = 0;
+      std::map<std::string, std::pair<double, double>> cover;  // per IMU frame, where tf reaches the clouds' frame
+      for_each_message(bag_, file_, topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
+        const std::string what = message_name(file_, topic, k);
+        const ros1::Imu m = ros1::decode_imu(data, size, what);
+        const std::string frame = m.header.frame_id.empty() ? cloud_frame_ : m.header.frame_id;
+        const double t = m.header.stamp();
+        if (frame != cloud_frame_) needs_cloud_frame("the IMU");
+        try {
+          auto it = cover.find(frame);
+          if (it == cover.end()) it = cover.emplace(frame, tree_.coverage(cloud_frame_, frame)).first;
+          if (t < it->second.first - 1e-9 || t > it->second.second + 1e-9) {
+            ++outside;
+            return;
+          }
+          out_.imu.push_back({t, tree_.lookup(cloud_frame_, frame, t).linear() * m.linear_acceleration});
+        } catch (const Error& e) {
+          throw tf_error(e);
+        }
+      });
+      std::stable_sort(out_.imu.begin(), out_.imu.end(),
+                       [](const ImuSample& a, const ImuSample& b) { return a.time < b.time; });
+      imu_note_ = "; " + std::to_string(out_.imu.size()) + " IMU samples from " + topic;
+      if (outside > 0) imu_note_ += " (" + std::to_string(outside) + " outside the tf to the clouds' frame left out)";
+    }
   }
-  return out;
+
+  void summarize() {
+    out_.summary = "bag " + name_ + ": " + std::to_string(out_.times.size()) + " scans on " + out_.points_topic +
+                   " (frame " + in_quotes(cloud_frame_) + ", " + seconds(out_.times.front()) + ".." +
+                   seconds(out_.times.back()) + " s); " + (odometry_note_.empty() ? "no odometry" : odometry_note_) +
+                   "; " +
+                   (truth_ ? "ground truth from " + truth_->topic + " (" + in_quotes(truth_->parent) + " -> " +
+                                 in_quotes(truth_->child) + ")"
+                           : "no ground truth") +
+                   imu_note_;
+    if (before_ + after_ > 0) {
+      out_.summary += "; left out " + std::to_string(before_) + " scans before and " + std::to_string(after_) +
+                      " after the odometry / ground truth";
+    }
+  }
+
+  const fs::path& file_;
+  const BagOptions& options_;
+  const std::string name_;
+  rosbag::Bag bag_;
+  std::map<std::string, TopicInfo> topics_;
+  BagContents out_;
+  std::vector<double> stamps_;  // every scan's header stamp, in the bag's order
+  std::string cloud_frame_;
+  TransformTree tree_;
+  std::optional<PoseSeries> odom_series_;  // odometry from a topic, or
+  bool odom_from_tf_ = false;              // from tf
+  std::string odometry_note_, imu_note_;
+  std::optional<PoseSeries> truth_;
+  std::size_t before_ = 0, after_ = 0;  // scans left out before and after the odometry / ground truth
+};
+
+BagContents read_contents(const fs::path& file, const BagOptions& options) {
+  return ContentsReader(file, options).read();
 }
 
 // ------------------------------------------------------------------------- child process and pipe
