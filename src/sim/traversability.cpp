@@ -97,8 +97,26 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
   floor_.assign(n, kNaN);
   slope_deg_.assign(n, kNaN);
 
+  find_floors(scene, robot, min_floor_z);
+  const std::size_t floor_cells = mark_passable(find_obstacles(mesh, robot));
+  const std::vector<std::uint8_t> blocked = find_blocked(robot.max_step);
+  compute_clearance(blocked);
+  // The obstacle may sit anywhere in its cell: half a cell of margin.
+  const auto needed = static_cast<float>(robot.radius + 0.5 * cell);
+  choose_free_region(blocked, needed, find_enclosed(scene, robot, blocked, needed));
+  if (free_area() < 1.0) {
+    char msg[256];
+    std::snprintf(msg, sizeof(msg),
+                  "the mesh has no traversable floor: %.1f m^2 of floor (near-horizontal, %.1f m headroom), %.1f m^2 "
+                  "where a robot of radius %.2f m fits",
+                  static_cast<double>(floor_cells) * cell * cell, robot.height, free_area(), robot.radius);
+    throw Error(msg);
+  }
+}
+
+void TraversabilityGrid::find_floors(const RayCaster& scene, const RobotModel& robot, double min_floor_z) {
   // Floors: every surface under the cell centre, top down.
-  const float top = box.max().z() + 1.0f;
+  const float top = scene.bounds().max().z() + 1.0f;
   const auto cos_max_slope = static_cast<float>(std::cos(robot.max_slope_deg * M_PI / 180.0));
   const auto robot_height = static_cast<float>(robot.height);
   const Eigen::Vector3f down(0.0f, 0.0f, -1.0f);
@@ -124,7 +142,9 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       }
     }
   }
+}
 
+std::vector<std::uint8_t> TraversabilityGrid::find_obstacles(const TriangleMesh& mesh, const RobotModel& robot) const {
   // Obstacles: any triangle reaching into the band between a step and the robot's height above the floor.
   float lowest = std::numeric_limits<float>::infinity(), highest = -lowest;
   for (float f : floor_) {
@@ -133,8 +153,9 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
     highest = std::max(highest, f);
   }
   const auto step = static_cast<float>(robot.max_step);
-  std::vector<std::uint8_t> obstacle(n, 0);
-  const auto cellf = static_cast<float>(cell);
+  std::vector<std::uint8_t> obstacle(floor_.size(), 0);
+  const auto cellf = static_cast<float>(cell_);
+  const auto robot_height = static_cast<float>(robot.height);
   for (const auto& t : mesh.triangles) {
     const std::array<Eigen::Vector3f, 3> tri{mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]};
     const float tz0 = std::min({tri[0].z(), tri[1].z(), tri[2].z()});
@@ -144,8 +165,8 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       const float lo = std::min({tri[0][axis], tri[1][axis], tri[2][axis]});
       const float hi = std::max({tri[0][axis], tri[1][axis], tri[2][axis]});
       const double o = origin_[axis];
-      return std::pair<int, int>{std::max(0, static_cast<int>(std::floor((lo - o) / cell))),
-                                 std::min(count - 1, static_cast<int>(std::floor((hi - o) / cell)))};
+      return std::pair<int, int>{std::max(0, static_cast<int>(std::floor((lo - o) / cell_))),
+                                 std::min(count - 1, static_cast<int>(std::floor((hi - o) / cell_)))};
     };
     const auto [ix0, ix1] = cell_range(0, width_);
     const auto [iy0, iy1] = cell_range(1, height_);
@@ -164,16 +185,23 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       }
     }
   }
+  return obstacle;
+}
 
-  passable_.assign(n, 0);
+std::size_t TraversabilityGrid::mark_passable(const std::vector<std::uint8_t>& obstacle) {
+  passable_.assign(floor_.size(), 0);
   std::size_t floor_cells = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < floor_.size(); ++i) {
     floor_cells += !std::isnan(floor_[i]);
     passable_[i] = !std::isnan(floor_[i]) && !obstacle[i];
   }
+  return floor_cells;
+}
 
+std::vector<std::uint8_t> TraversabilityGrid::find_blocked(double max_step) const {
+  const auto step = static_cast<float>(max_step);
   // Blocked: no passable floor, or a cliff to a neighbour (missing floor or a step too high).
-  std::vector<std::uint8_t> blocked(n, 1);
+  std::vector<std::uint8_t> blocked(floor_.size(), 1);
   for (int iy = 1; iy + 1 < height_; ++iy) {
     for (int ix = 1; ix + 1 < width_; ++ix) {
       const int i = index(ix, iy);
@@ -186,8 +214,12 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       blocked[i] = cliff;
     }
   }
+  return blocked;
+}
 
+void TraversabilityGrid::compute_clearance(const std::vector<std::uint8_t>& blocked) {
   // Clearance: distance transform of the blocked cells, columns then rows.
+  const std::size_t n = floor_.size();
   std::vector<double> sq(n);
   for (std::size_t i = 0; i < n; ++i) sq[i] = blocked[i] ? 0.0 : 1e18;
   {
@@ -211,21 +243,26 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
     }
   }
   clearance_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) clearance_[i] = static_cast<float>(std::sqrt(sq[i]) * cell);
+  for (std::size_t i = 0; i < n; ++i) clearance_[i] = static_cast<float>(std::sqrt(sq[i]) * cell_);
+}
 
-  // The obstacle may sit anywhere in its cell: half a cell of margin.
-  const auto needed = static_cast<float>(robot.radius + 0.5 * cell);
-  auto candidate = [&](std::size_t i) { return !blocked[i] && clearance_[i] >= needed; };
+bool TraversabilityGrid::candidate(const std::vector<std::uint8_t>& blocked, float needed, std::size_t i) const {
+  return !blocked[i] && clearance_[i] >= needed;
+}
 
+std::vector<std::uint8_t> TraversabilityGrid::find_enclosed(const RayCaster& scene, const RobotModel& robot,
+                                                            const std::vector<std::uint8_t>& blocked,
+                                                            float needed) const {
   // Enclosure, sampled on every third cell: horizontal rays at half the robot's height hit the mesh in
   // (nearly) every direction indoors, but not beside a building standing on a ground plane.
-  const float reach = box.sizes().norm();
-  std::vector<std::uint8_t> enclosed(n, 0);
+  const float reach = scene.bounds().sizes().norm();
+  const auto robot_height = static_cast<float>(robot.height);
+  std::vector<std::uint8_t> enclosed(floor_.size(), 0);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int iy = 0; iy < height_; iy += 3) {
     for (int ix = 0; ix < width_; ix += 3) {
       const int i = index(ix, iy);
-      if (!candidate(static_cast<std::size_t>(i))) continue;
+      if (!candidate(blocked, needed, static_cast<std::size_t>(i))) continue;
       const Eigen::Vector2d c = center(i);
       const Eigen::Vector3f origin(static_cast<float>(c.x()), static_cast<float>(c.y()), floor_[i] + robot_height / 2);
       int hits = 0;
@@ -240,13 +277,18 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       enclosed[i] = hits >= 14;
     }
   }
+  return enclosed;
+}
 
+void TraversabilityGrid::choose_free_region(const std::vector<std::uint8_t>& blocked, float needed,
+                                            const std::vector<std::uint8_t>& enclosed) {
   // Connected regions; the one with the most enclosed cells wins, the larger one among equals.
+  const std::size_t n = floor_.size();
   std::vector<int> component(n, -1);
   std::vector<int> best;
   std::size_t best_enclosed = 0;
   for (std::size_t seed = 0; seed < n; ++seed) {
-    if (component[seed] >= 0 || !candidate(seed)) continue;
+    if (component[seed] >= 0 || !candidate(blocked, needed, seed)) continue;
     std::vector<int> members{static_cast<int>(seed)};
     component[seed] = static_cast<int>(seed);
     std::size_t members_enclosed = 0;
@@ -255,7 +297,7 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
       const Eigen::Vector2i c = coords(members[head]);
       for (const auto& d : kNeighbours) {
         const int j = index(c.x() + d[0], c.y() + d[1]);  // blocked border cells keep this inside the grid
-        if (component[j] >= 0 || !candidate(static_cast<std::size_t>(j))) continue;
+        if (component[j] >= 0 || !candidate(blocked, needed, static_cast<std::size_t>(j))) continue;
         component[j] = static_cast<int>(seed);
         members.push_back(j);
       }
@@ -269,14 +311,6 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
   std::sort(best.begin(), best.end());
   for (int i : best) free_[static_cast<std::size_t>(i)] = 1;
   free_cells_ = std::move(best);
-  if (free_area() < 1.0) {
-    char msg[256];
-    std::snprintf(msg, sizeof(msg),
-                  "the mesh has no traversable floor: %.1f m^2 of floor (near-horizontal, %.1f m headroom), %.1f m^2 "
-                  "where a robot of radius %.2f m fits",
-                  static_cast<double>(floor_cells) * cell * cell, robot.height, free_area(), robot.radius);
-    throw Error(msg);
-  }
 }
 
 int TraversabilityGrid::index_of(const Eigen::Vector2d& p) const {

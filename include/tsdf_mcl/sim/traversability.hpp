@@ -52,6 +52,26 @@ class TraversabilityGrid {
   double free_area() const { return static_cast<double>(free_cells_.size()) * cell_ * cell_; }
 
  private:
+  // The constructor's stages, in order.
+  // Floors: every near-horizontal surface under a cell's centre with the robot's headroom above it.
+  void find_floors(const RayCaster& scene, const RobotModel& robot, double min_floor_z);
+  // Cells where a triangle reaches into the band between a step and the robot's height above the floor.
+  std::vector<std::uint8_t> find_obstacles(const TriangleMesh& mesh, const RobotModel& robot) const;
+  // passable_ = floor and no obstacle; returns the cells with a floor.
+  std::size_t mark_passable(const std::vector<std::uint8_t>& obstacle);
+  // No passable floor, or a cliff to a neighbour (missing floor or a step higher than max_step).
+  std::vector<std::uint8_t> find_blocked(double max_step) const;
+  // clearance_: distance to the nearest blocked cell.
+  void compute_clearance(const std::vector<std::uint8_t>& blocked);
+  // Where the robot fits: not blocked, at least `needed` from a blocked cell.
+  bool candidate(const std::vector<std::uint8_t>& blocked, float needed, std::size_t i) const;
+  // Every third candidate cell: whether horizontal rays hit the mesh in nearly every direction (indoors).
+  std::vector<std::uint8_t> find_enclosed(const RayCaster& scene, const RobotModel& robot,
+                                          const std::vector<std::uint8_t>& blocked, float needed) const;
+  // free_ / free_cells_: the connected candidate region with the most enclosed cells (the larger among equals).
+  void choose_free_region(const std::vector<std::uint8_t>& blocked, float needed,
+                          const std::vector<std::uint8_t>& enclosed);
+
   double cell_;
   int width_ = 0;
   int height_ = 0;

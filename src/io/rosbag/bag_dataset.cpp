@@ -297,13 +297,11 @@ class ContentsReader {
 
   void read_tf() {
     // tf: /tf dynamic, /tf_static static; either may be absent.
-    std::vector<std::string> tf_topics;
     for (const auto& [wanted, is_static] :
          {std::pair{options_.tf_topic, false}, std::pair{options_.tf_static_topic, true}}) {
       if (wanted.empty() || find_topic(topics_, wanted).empty()) continue;
       const std::string topic = require_topic(topics_, file_, wanted, is_static ? "static tf" : "tf",
                                               {ros1::kTfMessage, ros1::kOldTfMessage});
-      tf_topics.push_back(topic);
       const bool static_topic = is_static;
       for_each_message(bag_, file_, topic, [&](const std::uint8_t* data, std::size_t size, std::uint64_t k) {
         const std::string what = message_name(file_, topic, k);
