@@ -57,6 +57,31 @@ std::string format_metres(float v) {
   return text;
 }
 
+// A voxel's quantized distance near a block: most neighbours lie in the same block (`entry`, first voxel
+// `block_voxel0`), the rest go through the coarse index.
+std::int16_t quantized_near(const TsdfMap& map, const Eigen::Vector3i& v, std::uint32_t entry,
+                            const Eigen::Vector3i& block_voxel0) {
+  const Eigen::Vector3i l = v - block_voxel0;
+  if ((l.array() >= 0).all() && (l.array() < kB).all()) {
+    const int li = l.x() + kB * (l.y() + kB * l.z());
+    return word_half(map.block_pool()[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
+  }
+  return map.quantized(v);
+}
+
+// How much the distance changes along an axis (for the surface orientation): the larger one-sided difference to a
+// known neighbour. A central difference would vanish in the middle of a wall one or two voxels thin, where the
+// distance rises to both sides.
+float variation(const TsdfMap& map, int q, const Eigen::Vector3i& v, const Eigen::Vector3i& axis, std::uint32_t entry,
+                const Eigen::Vector3i& b0) {
+  float change = 0.0f;
+  for (const Eigen::Vector3i& n : {Eigen::Vector3i(v + axis), Eigen::Vector3i(v - axis)}) {
+    const std::int16_t qn = quantized_near(map, n, entry, b0);
+    if (qn != TsdfMap::kUnknownValue) change = std::max(change, static_cast<float>(std::abs(qn - q)));
+  }
+  return change;
+}
+
 }  // namespace
 
 MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
@@ -76,6 +101,20 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
   char range[96];
   std::snprintf(range, sizeof(range), "%.2f .. %.2f m", static_cast<double>(map_z_lo), static_cast<double>(map_z_hi));
 
+  const auto [k_lo, k_hi] = voxel_z_range(map, options, range);
+  z_min_ = static_cast<float>(k_lo) * vs;
+  z_max_ = static_cast<float>(k_hi) * vs;
+  // Counted only up to kMinObstacleVoxels: whether a column is an obstacle is all that matters.
+  std::vector<std::uint8_t> obstacle_voxels(slice_ ? 0 : cells_.size(), 0);
+  rasterize(map, k_lo, k_hi, obstacle_voxels);
+  if (!slice_) classify_obstacles(obstacle_voxels);
+}
+
+std::pair<int, int> MapRaster::voxel_z_range(const TsdfMap& map, const MapRasterOptions& options,
+                                             const std::string& range) {
+  const float vs = map.voxel_size();
+  const Eigen::Vector3i first = map.min_block() * kB;
+  const Eigen::Vector3i last = (map.min_block() + map.dims_blocks()) * kB - Eigen::Vector3i::Ones();
   int k_lo = 0, k_hi = 0;
   if (options.slice_z) {
     slice_ = true;
@@ -100,36 +139,12 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
                   range + ")");
     }
   }
-  z_min_ = static_cast<float>(k_lo) * vs;
-  z_max_ = static_cast<float>(k_hi) * vs;
+  return {k_lo, k_hi};
+}
 
+void MapRaster::rasterize(const TsdfMap& map, int k_lo, int k_hi, std::vector<std::uint8_t>& obstacle_voxels) {
+  const Eigen::Vector3i dims = map.dims_blocks();
   const auto& coarse = map.coarse_index();
-  const auto& pool = map.block_pool();
-  const int q_surface = static_cast<int>(vs / truncation_ * TsdfMap::kQuantMax);
-  // Counted only up to kMinObstacleVoxels: whether a column is an obstacle is all that matters.
-  std::vector<std::uint8_t> obstacle_voxels(slice_ ? 0 : cells_.size(), 0);
-
-  // Neighbours for the surface orientation; most lie in the same block, the rest go through the coarse index.
-  auto quantized_near = [&](const Eigen::Vector3i& v, std::uint32_t entry, const Eigen::Vector3i& block_voxel0) {
-    const Eigen::Vector3i l = v - block_voxel0;
-    if ((l.array() >= 0).all() && (l.array() < kB).all()) {
-      const int li = l.x() + kB * (l.y() + kB * l.z());
-      return word_half(pool[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
-    }
-    return map.quantized(v);
-  };
-  // How much the distance changes along an axis: the larger one-sided difference to a known neighbour. A central
-  // difference would vanish in the middle of a wall one or two voxels thin, where the distance rises to both sides.
-  auto variation = [&](int q, const Eigen::Vector3i& v, const Eigen::Vector3i& axis, std::uint32_t entry,
-                       const Eigen::Vector3i& b0) -> float {
-    float change = 0.0f;
-    for (const Eigen::Vector3i& n : {Eigen::Vector3i(v + axis), Eigen::Vector3i(v - axis)}) {
-      const std::int16_t qn = quantized_near(n, entry, b0);
-      if (qn != TsdfMap::kUnknownValue) change = std::max(change, static_cast<float>(std::abs(qn - q)));
-    }
-    return change;
-  };
-
   const int bz_lo = floor_div(k_lo, kB) - map.min_block().z();
   const int bz_hi = floor_div(k_hi, kB) - map.min_block().z();
   for (int cz = bz_lo; cz <= bz_hi; ++cz) {
@@ -142,50 +157,63 @@ MapRaster::MapRaster(const TsdfMap& map, const MapRasterOptions& options) {
                    static_cast<std::size_t>(dims.x()) * (cy + static_cast<std::size_t>(dims.y()) * cz)];
         if (entry == TsdfMap::kUnknownBlock) continue;
         if (entry == TsdfMap::kFreeBlock) {
-          for (int ly = 0; ly < kB; ++ly) {
-            for (int lx = 0; lx < kB; ++lx) {
-              const std::size_t c = index(cx * kB + lx, cy * kB + ly);
-              if (cells_[c] != Cell::kUnknown) continue;
-              cells_[c] = Cell::kFree;
-              if (slice_) values_[c] = truncation_;
-            }
-          }
-          continue;
-        }
-        const Eigen::Vector3i b0 = (map.min_block() + Eigen::Vector3i(cx, cy, cz)) * kB;
-        for (int lz = lz_lo; lz <= lz_hi; ++lz) {
-          for (int ly = 0; ly < kB; ++ly) {
-            for (int lx = 0; lx < kB; ++lx) {
-              const int li = lx + kB * (ly + kB * lz);
-              const std::int16_t q =
-                  word_half(pool[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
-              if (q == TsdfMap::kUnknownValue) continue;
-              const std::size_t c = index(cx * kB + lx, cy * kB + ly);
-              if (slice_) {
-                const float d = map.dequantize(q);
-                values_[c] = d;
-                cells_[c] = q >= q_surface ? Cell::kFree : q <= -q_surface ? Cell::kInside : Cell::kSurface;
-                continue;
-              }
-              if (cells_[c] == Cell::kUnknown) cells_[c] = Cell::kFree;
-              if (std::abs(static_cast<int>(q)) >= q_surface) continue;
-              const Eigen::Vector3i v = b0 + Eigen::Vector3i(lx, ly, lz);
-              const float gx = variation(q, v, Eigen::Vector3i::UnitX(), entry, b0);
-              const float gy = variation(q, v, Eigen::Vector3i::UnitY(), entry, b0);
-              const float gz = variation(q, v, Eigen::Vector3i::UnitZ(), entry, b0);
-              const float g2 = gx * gx + gy * gy + gz * gz;
-              if (!(g2 > 0.0f) || gz * gz >= kVerticalNormalCos2 * g2) continue;
-              if (obstacle_voxels[c] < kMinObstacleVoxels) ++obstacle_voxels[c];
-              const float z = static_cast<float>(v.z()) * vs;
-              if (!(values_[c] >= z)) values_[c] = z;
-            }
-          }
+          fill_free_block(cx, cy);
+        } else {
+          rasterize_block(map, entry, Eigen::Vector3i(cx, cy, cz), lz_lo, lz_hi, obstacle_voxels);
         }
       }
     }
   }
+}
 
-  if (slice_) return;
+void MapRaster::fill_free_block(int cx, int cy) {
+  for (int ly = 0; ly < kB; ++ly) {
+    for (int lx = 0; lx < kB; ++lx) {
+      const std::size_t c = index(cx * kB + lx, cy * kB + ly);
+      if (cells_[c] != Cell::kUnknown) continue;
+      cells_[c] = Cell::kFree;
+      if (slice_) values_[c] = truncation_;
+    }
+  }
+}
+
+void MapRaster::rasterize_block(const TsdfMap& map, std::uint32_t entry, const Eigen::Vector3i& block, int lz_lo,
+                                int lz_hi, std::vector<std::uint8_t>& obstacle_voxels) {
+  const float vs = map.voxel_size();
+  const auto& pool = map.block_pool();
+  const int q_surface = static_cast<int>(vs / truncation_ * TsdfMap::kQuantMax);
+  const int cx = block.x(), cy = block.y();
+  const Eigen::Vector3i b0 = (map.min_block() + block) * kB;
+  for (int lz = lz_lo; lz <= lz_hi; ++lz) {
+    for (int ly = 0; ly < kB; ++ly) {
+      for (int lx = 0; lx < kB; ++lx) {
+        const int li = lx + kB * (ly + kB * lz);
+        const std::int16_t q = word_half(pool[static_cast<std::size_t>(entry) * TsdfMap::kWordsPerBlock + li / 2], li);
+        if (q == TsdfMap::kUnknownValue) continue;
+        const std::size_t c = index(cx * kB + lx, cy * kB + ly);
+        if (slice_) {
+          const float d = map.dequantize(q);
+          values_[c] = d;
+          cells_[c] = q >= q_surface ? Cell::kFree : q <= -q_surface ? Cell::kInside : Cell::kSurface;
+          continue;
+        }
+        if (cells_[c] == Cell::kUnknown) cells_[c] = Cell::kFree;
+        if (std::abs(static_cast<int>(q)) >= q_surface) continue;
+        const Eigen::Vector3i v = b0 + Eigen::Vector3i(lx, ly, lz);
+        const float gx = variation(map, q, v, Eigen::Vector3i::UnitX(), entry, b0);
+        const float gy = variation(map, q, v, Eigen::Vector3i::UnitY(), entry, b0);
+        const float gz = variation(map, q, v, Eigen::Vector3i::UnitZ(), entry, b0);
+        const float g2 = gx * gx + gy * gy + gz * gz;
+        if (!(g2 > 0.0f) || gz * gz >= kVerticalNormalCos2 * g2) continue;
+        if (obstacle_voxels[c] < kMinObstacleVoxels) ++obstacle_voxels[c];
+        const float z = static_cast<float>(v.z()) * vs;
+        if (!(values_[c] >= z)) values_[c] = z;
+      }
+    }
+  }
+}
+
+void MapRaster::classify_obstacles(const std::vector<std::uint8_t>& obstacle_voxels) {
   obstacle_min_ = std::numeric_limits<float>::infinity();
   obstacle_max_ = -std::numeric_limits<float>::infinity();
   for (std::size_t c = 0; c < cells_.size(); ++c) {

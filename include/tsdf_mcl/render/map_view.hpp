@@ -70,6 +70,18 @@ class MapRaster {
 
  private:
   std::size_t index(int i, int j) const { return static_cast<std::size_t>(j) * nx_ + i; }
+  // The constructor's stages. The voxel rows (z index) the raster covers, a slice's one or the z-range's, with
+  // slice_ set; errors name the map's z `range`.
+  std::pair<int, int> voxel_z_range(const TsdfMap& map, const MapRasterOptions& options, const std::string& range);
+  // Every block of those rows into the columns: a slice's distances, or free columns and, per column, the
+  // near-vertical surface voxels (counted in obstacle_voxels, the highest one's z kept as the value).
+  void rasterize(const TsdfMap& map, int k_lo, int k_hi, std::vector<std::uint8_t>& obstacle_voxels);
+  void fill_free_block(int cx, int cy);  // a block known free: its unknown columns become free
+  // One block with voxels (`block`: its index from the map's min_block), rows lz_lo..lz_hi of it.
+  void rasterize_block(const TsdfMap& map, std::uint32_t entry, const Eigen::Vector3i& block, int lz_lo, int lz_hi,
+                       std::vector<std::uint8_t>& obstacle_voxels);
+  // Columns with enough near-vertical surface become obstacles; the obstacle height range for the colours.
+  void classify_obstacles(const std::vector<std::uint8_t>& obstacle_voxels);
 
   bool slice_ = false;
   float voxel_size_ = 0.0f;
