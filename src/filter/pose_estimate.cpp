@@ -117,8 +117,37 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     }
   }
   if (!(w_max > 0.0) || !std::isfinite(w_max)) throw Error("pose estimate: no particle has a positive weight");
-  const double threshold = options_.min_relative_weight * w_max;
+  double total = 0.0;
+  for (std::size_t i = 0; i < n; ++i) total += w[i];
 
+  bin_particles(p, w, n, options_.min_relative_weight * w_max);
+  join_neighbour_cells();
+  PoseEstimate e;
+  const std::size_t k = rank_components(&e.modes);
+  e.hypotheses = describe(p, w, n, k, total);
+  e.converged = take_dominant_hypothesis(e, options_);
+  if (options_.best_particle) {
+    e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
+    e.pose.translation() = p.position(best).cast<double>();
+  }
+  return e;
+}
+
+std::uint32_t PoseEstimator::cell_of(const Cell& c, bool insert) {
+  const std::size_t slots = keys_.size();
+  const std::uint64_t key = cell_key(c);
+  std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
+  while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
+  if (keys_[s] != 0) return slot_cell_[s];
+  if (!insert) return kNoCell;
+  keys_[s] = key;
+  slot_cell_[s] = static_cast<std::uint32_t>(cells_.size());
+  cells_.push_back(c);
+  cell_weight_.push_back(0.0);
+  return slot_cell_[s];
+}
+
+void PoseEstimator::bin_particles(const ParticleArrays& p, const double* w, std::size_t n, double threshold) {
   // Cells of the (x, y, z, yaw, up axis) grid.
   std::size_t slots = 16;
   while (slots < 2 * n) slots *= 2;
@@ -126,25 +155,10 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     keys_.resize(slots);
     slot_cell_.resize(slots);
   }
-  slots = keys_.size();
   std::fill(keys_.begin(), keys_.end(), 0u);
-  const auto lookup = [&](const Cell& c, bool insert) -> std::uint32_t {
-    const std::uint64_t key = cell_key(c);
-    std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
-    while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
-    if (keys_[s] != 0) return slot_cell_[s];
-    if (!insert) return kNoCell;
-    keys_[s] = key;
-    slot_cell_[s] = static_cast<std::uint32_t>(cells_.size());
-    cells_.push_back(c);
-    cell_weight_.push_back(0.0);
-    return slot_cell_[s];
-  };
   cells_.clear();
   cell_weight_.clear();
   particle_cell_.assign(n, kNoCell);
-  double total = 0.0;
-  for (std::size_t i = 0; i < n; ++i) total += w[i];
   // Each particle's cell (atan2 and a rotation matrix a particle: in parallel), then the cells in particle order
   // into the table (sequential: the cells' numbering, and so every tie below, does not depend on the threads).
   particle_cells_.resize(n);
@@ -165,11 +179,13 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (!(w[i] > threshold)) continue;
-    const std::uint32_t cell = lookup(particle_cells_[i], true);
+    const std::uint32_t cell = cell_of(particle_cells_[i], true);
     particle_cell_[i] = cell;
     cell_weight_[cell] += w[i];
   }
+}
 
+void PoseEstimator::join_neighbour_cells() {
   // Connected components over face neighbours (one step along x, y, z or yaw; yaw wraps; the up axis never
   // changes within a component). Each cell looks up the positive side only: the negative side is the same
   // pairs seen from the other cell. The 80 diagonal neighbours would join a little more, at ten times the
@@ -187,7 +203,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
       Cell nb = cells_[c];
       nb[axis] += 1;
       nb[3] = nb[3] % yaw_cells_;
-      neighbours_[4 * c + static_cast<std::size_t>(axis)] = lookup(nb, false);
+      neighbours_[4 * c + static_cast<std::size_t>(axis)] = cell_of(nb, false);
     }
   }
   for (std::uint32_t c = 0; c < cells; ++c) {
@@ -199,8 +215,11 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
       if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);
     }
   }
+}
+
+std::size_t PoseEstimator::rank_components(std::size_t* modes) {
+  const auto cells = static_cast<std::uint32_t>(cells_.size());
   root_weight_.assign(cells, 0.0);
-  PoseEstimate e;
   std::vector<std::uint32_t> roots;
   for (std::uint32_t c = 0; c < cells; ++c) {
     const std::uint32_t r = find(c);
@@ -208,7 +227,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
     root_weight_[r] += cell_weight_[c];
   }
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = find(c);  // flat: parent_ is now the root
-  e.modes = roots.size();
+  *modes = roots.size();
   // The heaviest components become hypotheses (ties: the lower cell, for determinism).
   const std::size_t k = std::min(options_.max_hypotheses, roots.size());
   std::partial_sort(roots.begin(), roots.begin() + static_cast<std::ptrdiff_t>(k), roots.end(),
@@ -217,14 +236,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
                     });
   root_rank_.assign(cells, -1);
   for (std::size_t r = 0; r < k; ++r) root_rank_[roots[r]] = static_cast<std::int32_t>(r);
-  e.hypotheses = describe(p, w, n, k, total);
-
-  e.converged = take_dominant_hypothesis(e, options_);
-  if (options_.best_particle) {
-    e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
-    e.pose.translation() = p.position(best).cast<double>();
-  }
-  return e;
+  return k;
 }
 
 bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) {

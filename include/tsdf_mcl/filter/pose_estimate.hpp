@@ -103,6 +103,14 @@ class PoseEstimator {
 
  private:
   std::uint32_t find(std::uint32_t a);
+  // The cell's number in the hash table; a new cell gets one where `insert`, else kNoCell.
+  std::uint32_t cell_of(const Cell& c, bool insert);
+  // estimate()'s stages. The particles above `threshold` into cells of the (x, y, z, yaw, up axis) grid.
+  void bin_particles(const ParticleArrays& p, const double* w, std::size_t n, double threshold);
+  // Connected components of the cells over face neighbours (union-find, each rooted at its lowest cell).
+  void join_neighbour_cells();
+  // The components by weight: the heaviest max_hypotheses ranked (root_rank_); returns how many, `modes` all.
+  std::size_t rank_components(std::size_t* modes);
   // Hypotheses 0..k-1 (the heaviest components, ranked) from their particles.
   std::vector<Hypothesis> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
                                    double total) const;
