@@ -134,7 +134,20 @@ VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::on_debug_message(VkDebugUtilsMessa
 }
 
 VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_message_(options.on_validation_message) {
-  const bool validation = options.validation || validation_requested_by_environment();
+  create_instance(options.validation || validation_requested_by_environment(), options.profile);
+  try {
+    pick_physical_device(options.device_index);
+    read_capabilities();
+    pick_queue_family();
+    create_device(options.profile);
+    load_extension_functions();
+  } catch (...) {
+    release();
+    throw;
+  }
+}
+
+void VulkanContext::create_instance(bool validation, bool profile) {
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "tsdf-mcl";
   app.apiVersion = VK_API_VERSION_1_2;
@@ -151,7 +164,7 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
     }
     layers.push_back("VK_LAYER_KHRONOS_validation");
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
-  } else if (options.profile && has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME)) {
+  } else if (profile && has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME)) {
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);  // names and labels for captures
   }
   caps_.debug_utils = !extensions.empty();
@@ -188,142 +201,148 @@ VulkanContext::VulkanContext(const EvaluatorOptions& options) : on_validation_me
     if (create_messenger)
       check(create_messenger(instance_, &messenger_info, nullptr, &messenger_), "vkCreateDebugUtilsMessengerEXT");
   }
+}
 
-  try {
-    std::uint32_t count = 0;
-    check(vkEnumeratePhysicalDevices(instance_, &count, nullptr), "vkEnumeratePhysicalDevices");
-    if (count == 0) throw Error("no Vulkan device found");
-    std::vector<VkPhysicalDevice> devices(count);
-    check(vkEnumeratePhysicalDevices(instance_, &count, devices.data()), "vkEnumeratePhysicalDevices");
-    if (options.device_index >= 0) {
-      if (static_cast<std::uint32_t>(options.device_index) >= count) {
-        throw Error("Vulkan device index " + std::to_string(options.device_index) + " out of range (" +
-                    std::to_string(count) + " devices)");
-      }
-      physical_ = devices[static_cast<std::size_t>(options.device_index)];
-    } else {
-      int best = 99;
-      for (VkPhysicalDevice d : devices) {
-        VkPhysicalDeviceProperties p;
-        vkGetPhysicalDeviceProperties(d, &p);
-        if (p.apiVersion < VK_API_VERSION_1_2) continue;
-        if (type_rank(p.deviceType) < best) {
-          best = type_rank(p.deviceType);
-          physical_ = d;
-        }
-      }
-      if (!physical_) throw Error("no Vulkan 1.2 device found");
+void VulkanContext::pick_physical_device(int device_index) {
+  std::uint32_t count = 0;
+  check(vkEnumeratePhysicalDevices(instance_, &count, nullptr), "vkEnumeratePhysicalDevices");
+  if (count == 0) throw Error("no Vulkan device found");
+  std::vector<VkPhysicalDevice> devices(count);
+  check(vkEnumeratePhysicalDevices(instance_, &count, devices.data()), "vkEnumeratePhysicalDevices");
+  if (device_index >= 0) {
+    if (static_cast<std::uint32_t>(device_index) >= count) {
+      throw Error("Vulkan device index " + std::to_string(device_index) + " out of range (" + std::to_string(count) +
+                  " devices)");
     }
-
-    VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
-    VkPhysicalDeviceProperties2 props2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
-    props2.pNext = &subgroup;
-    vkGetPhysicalDeviceProperties2(physical_, &props2);
-    const VkPhysicalDeviceProperties& p = props2.properties;
-    if (p.apiVersion < VK_API_VERSION_1_2)
-      throw Error(std::string("Vulkan device ") + p.deviceName + " is older than Vulkan 1.2");
-    caps_.name = p.deviceName;
-    caps_.api_version = p.apiVersion;
-    caps_.type = p.deviceType;
-    caps_.subgroup_size = std::max(1u, subgroup.subgroupSize);
-    caps_.subgroup_arithmetic = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) &&
-                                (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_BASIC_BIT) &&
-                                (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT);
-    caps_.max_storage_buffer_range = p.limits.maxStorageBufferRange;
-    caps_.max_uniform_buffer_range = p.limits.maxUniformBufferRange;
-    caps_.max_texel_buffer_elements = p.limits.maxTexelBufferElements;
-    caps_.max_workgroup_size_x = p.limits.maxComputeWorkGroupSize[0];
-    caps_.max_workgroup_invocations = p.limits.maxComputeWorkGroupInvocations;
-    caps_.max_workgroup_count_x = p.limits.maxComputeWorkGroupCount[0];
-    caps_.timestamp_period_ns = p.limits.timestampPeriod;
-
-    std::uint32_t families = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, nullptr);
-    std::vector<VkQueueFamilyProperties> family_props(families);
-    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, family_props.data());
-    bool found = false;
-    // Prefer a compute queue without graphics (dedicated async compute), else any compute queue.
-    for (int pass = 0; pass < 2 && !found; ++pass) {
-      for (std::uint32_t f = 0; f < families; ++f) {
-        const VkQueueFlags flags = family_props[f].queueFlags;
-        if (!(flags & VK_QUEUE_COMPUTE_BIT)) continue;
-        if (pass == 0 && (flags & VK_QUEUE_GRAPHICS_BIT)) continue;
-        queue_family_ = f;
-        found = true;
-        break;
+    physical_ = devices[static_cast<std::size_t>(device_index)];
+  } else {
+    int best = 99;
+    for (VkPhysicalDevice d : devices) {
+      VkPhysicalDeviceProperties p;
+      vkGetPhysicalDeviceProperties(d, &p);
+      if (p.apiVersion < VK_API_VERSION_1_2) continue;
+      if (type_rank(p.deviceType) < best) {
+        best = type_rank(p.deviceType);
+        physical_ = d;
       }
     }
-    if (!found) throw Error(std::string("Vulkan device ") + caps_.name + " has no compute queue");
-    const std::uint32_t valid_bits = family_props[queue_family_].timestampValidBits;
-    caps_.timestamps = valid_bits > 0 && caps_.timestamp_period_ns > 0.0;
-    caps_.timestamp_mask = valid_bits >= 64 ? ~0ull : ((1ull << valid_bits) - 1ull);
+    if (!physical_) throw Error("no Vulkan 1.2 device found");
+  }
+}
 
-    vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
-    const VkMemoryPropertyFlags unified = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                          VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    // Discrete GPUs with resizable BAR also expose such a type, but only as a small window of VRAM; treat
-    // memory as unified only where the device says it is integrated or on the CPU.
-    const bool integrated =
-        caps_.type == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU || caps_.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    for (std::uint32_t i = 0; i < memory_.memoryTypeCount && integrated; ++i) {
-      if ((memory_.memoryTypes[i].propertyFlags & unified) == unified) caps_.unified_memory = true;
+void VulkanContext::read_capabilities() {
+  VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+  VkPhysicalDeviceProperties2 props2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+  props2.pNext = &subgroup;
+  vkGetPhysicalDeviceProperties2(physical_, &props2);
+  const VkPhysicalDeviceProperties& p = props2.properties;
+  if (p.apiVersion < VK_API_VERSION_1_2)
+    throw Error(std::string("Vulkan device ") + p.deviceName + " is older than Vulkan 1.2");
+  caps_.name = p.deviceName;
+  caps_.api_version = p.apiVersion;
+  caps_.type = p.deviceType;
+  caps_.subgroup_size = std::max(1u, subgroup.subgroupSize);
+  caps_.subgroup_arithmetic = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) &&
+                              (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_BASIC_BIT) &&
+                              (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT);
+  caps_.max_storage_buffer_range = p.limits.maxStorageBufferRange;
+  caps_.max_uniform_buffer_range = p.limits.maxUniformBufferRange;
+  caps_.max_texel_buffer_elements = p.limits.maxTexelBufferElements;
+  caps_.max_workgroup_size_x = p.limits.maxComputeWorkGroupSize[0];
+  caps_.max_workgroup_invocations = p.limits.maxComputeWorkGroupInvocations;
+  caps_.max_workgroup_count_x = p.limits.maxComputeWorkGroupCount[0];
+  caps_.timestamp_period_ns = p.limits.timestampPeriod;
+}
+
+void VulkanContext::pick_queue_family() {
+  std::uint32_t families = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, nullptr);
+  std::vector<VkQueueFamilyProperties> family_props(families);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, family_props.data());
+  bool found = false;
+  // Prefer a compute queue without graphics (dedicated async compute), else any compute queue.
+  for (int pass = 0; pass < 2 && !found; ++pass) {
+    for (std::uint32_t f = 0; f < families; ++f) {
+      const VkQueueFlags flags = family_props[f].queueFlags;
+      if (!(flags & VK_QUEUE_COMPUTE_BIT)) continue;
+      if (pass == 0 && (flags & VK_QUEUE_GRAPHICS_BIT)) continue;
+      queue_family_ = f;
+      found = true;
+      break;
     }
+  }
+  if (!found) throw Error(std::string("Vulkan device ") + caps_.name + " has no compute queue");
+  const std::uint32_t valid_bits = family_props[queue_family_].timestampValidBits;
+  caps_.timestamps = valid_bits > 0 && caps_.timestamp_period_ns > 0.0;
+  caps_.timestamp_mask = valid_bits >= 64 ? ~0ull : ((1ull << valid_bits) - 1ull);
+}
 
-    const float priority = 1.0f;
-    VkDeviceQueueCreateInfo queue_info{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-    queue_info.queueFamilyIndex = queue_family_;
-    queue_info.queueCount = 1;
-    queue_info.pQueuePriorities = &priority;
-    VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-    device_info.queueCreateInfoCount = 1;
-    device_info.pQueueCreateInfos = &queue_info;
-    // Profiling: pipeline statistics and the driver's shader statistics, each only where the device has it.
-    VkPhysicalDeviceFeatures enabled{};
-    VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executable{
-        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
-    std::vector<const char*> device_extensions;
-    if (options.profile) {
-      VkPhysicalDeviceFeatures available{};
-      vkGetPhysicalDeviceFeatures(physical_, &available);
-      enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
-      caps_.pipeline_statistics = available.pipelineStatisticsQuery == VK_TRUE;
-      if (has_device_extension(physical_, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
-        VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR query{
-            VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
-        VkPhysicalDeviceFeatures2 features2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-        features2.pNext = &query;
-        vkGetPhysicalDeviceFeatures2(physical_, &features2);
-        if (query.pipelineExecutableInfo) {
-          executable.pipelineExecutableInfo = VK_TRUE;
-          device_extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
-          device_info.pNext = &executable;
-          caps_.executable_properties = true;
-        }
+void VulkanContext::create_device(bool profile) {
+  vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+  const VkMemoryPropertyFlags unified =
+      VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  // Discrete GPUs with resizable BAR also expose such a type, but only as a small window of VRAM; treat
+  // memory as unified only where the device says it is integrated or on the CPU.
+  const bool integrated =
+      caps_.type == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU || caps_.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  for (std::uint32_t i = 0; i < memory_.memoryTypeCount && integrated; ++i) {
+    if ((memory_.memoryTypes[i].propertyFlags & unified) == unified) caps_.unified_memory = true;
+  }
+
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo queue_info{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  queue_info.queueFamilyIndex = queue_family_;
+  queue_info.queueCount = 1;
+  queue_info.pQueuePriorities = &priority;
+  VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  device_info.queueCreateInfoCount = 1;
+  device_info.pQueueCreateInfos = &queue_info;
+  // Profiling: pipeline statistics and the driver's shader statistics, each only where the device has it.
+  VkPhysicalDeviceFeatures enabled{};
+  VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executable{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+  std::vector<const char*> device_extensions;
+  if (profile) {
+    VkPhysicalDeviceFeatures available{};
+    vkGetPhysicalDeviceFeatures(physical_, &available);
+    enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
+    caps_.pipeline_statistics = available.pipelineStatisticsQuery == VK_TRUE;
+    if (has_device_extension(physical_, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
+      VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR query{
+          VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+      VkPhysicalDeviceFeatures2 features2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+      features2.pNext = &query;
+      vkGetPhysicalDeviceFeatures2(physical_, &features2);
+      if (query.pipelineExecutableInfo) {
+        executable.pipelineExecutableInfo = VK_TRUE;
+        device_extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+        device_info.pNext = &executable;
+        caps_.executable_properties = true;
       }
     }
-    device_info.pEnabledFeatures = &enabled;
-    device_info.enabledExtensionCount = static_cast<std::uint32_t>(device_extensions.size());
-    device_info.ppEnabledExtensionNames = device_extensions.data();
-    check(vkCreateDevice(physical_, &device_info, nullptr, &device_), "vkCreateDevice");
-    vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
-    if (caps_.debug_utils) {
-      set_object_name_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
-          vkGetInstanceProcAddr(instance_, "vkSetDebugUtilsObjectNameEXT"));
-      begin_label_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
-          vkGetInstanceProcAddr(instance_, "vkCmdBeginDebugUtilsLabelEXT"));
-      end_label_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
-          vkGetInstanceProcAddr(instance_, "vkCmdEndDebugUtilsLabelEXT"));
-    }
-    if (caps_.executable_properties) {
-      executable_properties_ = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
-          vkGetDeviceProcAddr(device_, "vkGetPipelineExecutablePropertiesKHR"));
-      executable_statistics_ = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
-          vkGetDeviceProcAddr(device_, "vkGetPipelineExecutableStatisticsKHR"));
-      caps_.executable_properties = executable_properties_ && executable_statistics_;
-    }
-  } catch (...) {
-    release();
-    throw;
+  }
+  device_info.pEnabledFeatures = &enabled;
+  device_info.enabledExtensionCount = static_cast<std::uint32_t>(device_extensions.size());
+  device_info.ppEnabledExtensionNames = device_extensions.data();
+  check(vkCreateDevice(physical_, &device_info, nullptr, &device_), "vkCreateDevice");
+  vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+}
+
+void VulkanContext::load_extension_functions() {
+  if (caps_.debug_utils) {
+    set_object_name_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
+        vkGetInstanceProcAddr(instance_, "vkSetDebugUtilsObjectNameEXT"));
+    begin_label_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
+        vkGetInstanceProcAddr(instance_, "vkCmdBeginDebugUtilsLabelEXT"));
+    end_label_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
+        vkGetInstanceProcAddr(instance_, "vkCmdEndDebugUtilsLabelEXT"));
+  }
+  if (caps_.executable_properties) {
+    executable_properties_ = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+        vkGetDeviceProcAddr(device_, "vkGetPipelineExecutablePropertiesKHR"));
+    executable_statistics_ = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+        vkGetDeviceProcAddr(device_, "vkGetPipelineExecutableStatisticsKHR"));
+    caps_.executable_properties = executable_properties_ && executable_statistics_;
   }
 }
 

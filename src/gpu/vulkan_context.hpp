@@ -78,6 +78,19 @@ class VulkanContext {
                                                          VkDebugUtilsMessageTypeFlagsEXT types,
                                                          const VkDebugUtilsMessengerCallbackDataEXT* data, void* self);
   void release();
+  // The constructor's stages, in order.
+  // The instance, with the validation layer and the debug messenger (synchronization validation on) where asked,
+  // debug utils where profiling (names and labels for captures).
+  void create_instance(bool validation, bool profile);
+  // The device at `device_index`, or (-1) the best Vulkan 1.2 device: discrete, integrated, ..., CPU.
+  void pick_physical_device(int device_index);
+  void read_capabilities();  // name, version, subgroups, limits into caps_
+  // A compute queue, one without graphics (dedicated async compute) first; its timestamp support.
+  void pick_queue_family();
+  // Memory types (unified where the device is integrated or the CPU), the logical device and its queue; with
+  // `profile`, pipeline statistics and executable properties where the device has them.
+  void create_device(bool profile);
+  void load_extension_functions();  // debug labels and names, pipeline executable statistics
 
   VkInstance instance_ = VK_NULL_HANDLE;
   VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
