@@ -96,6 +96,14 @@ class VulkanEvaluator final : public SensorEvaluator {
   void check_validation() const;
   void release();
   void barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+  // evaluate()'s stages: the weighting pass's constants; recording the point upload and the weighting dispatch;
+  // recording the tree reduction (returns the records buffer that ends with the total); submitting and waiting for
+  // the fence; reading the timestamps and pipeline statistics (profiling).
+  gpu::EndpointPushConstants endpoint_push_constants(std::size_t n, const EndpointModel& model) const;
+  void record_weighting(const gpu::ComputePipeline& endpoint, const gpu::EndpointPushConstants& ep, std::size_t n);
+  int record_reduction(std::size_t n, const EndpointModel& model, const Eigen::Quaternionf& reference_rotation);
+  void submit_and_wait(int out);
+  void read_gpu_timings();
 
   std::unique_ptr<gpu::VulkanContext> ctx_;
   kernel::MapView map_view_;
@@ -536,6 +544,24 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
     table_model_ = model;
   }
 
+  record_weighting(endpoint, endpoint_push_constants(n, model), n);
+  const int out = record_reduction(n, model, reference_rotation);
+  submit_and_wait(out);
+  const float* r = static_cast<const float*>(records_[out].mapped());
+  WeightPartial total;
+  total.max_log_weight = r[0];
+  total.weight_sum = r[1];
+  for (int a = 0; a < 3; ++a) total.position[a] = r[2 + a];
+  for (int a = 0; a < 4; ++a) total.quaternion[a] = r[5 + a];
+  total.fit_sum = r[9];
+  timings_.evaluate_ms = t0.ms();
+
+  read_gpu_timings();
+  check_validation();
+  return total.summary();
+}
+
+gpu::EndpointPushConstants VulkanEvaluator::endpoint_push_constants(std::size_t n, const EndpointModel& model) const {
   gpu::EndpointPushConstants ep{};
   ep.particle_count = static_cast<std::uint32_t>(n);
   ep.point_count = static_cast<std::uint32_t>(point_count_);
@@ -556,6 +582,11 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   ep.log_p_unknown = k.log_p_unknown;
   ep.weight_exponent = model.weight_exponent;
 
+  return ep;
+}
+
+void VulkanEvaluator::record_weighting(const gpu::ComputePipeline& endpoint, const gpu::EndpointPushConstants& ep,
+                                       std::size_t n) {
   gpu::check(vkResetCommandBuffer(cmd_, 0), "vkResetCommandBuffer");
   VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
@@ -584,7 +615,10 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
   if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 2);
   ctx_->end_label(cmd_);
+}
 
+int VulkanEvaluator::record_reduction(std::size_t n, const EndpointModel& model,
+                                      const Eigen::Quaternionf& reference_rotation) {
   const FitConstants fit = fit_constants(model, point_count_);
   gpu::ReducePushConstants rp{};
   rp.capacity = static_cast<std::uint32_t>(capacity_);
@@ -618,7 +652,10 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_PIPELINE_STAGE_HOST_BIT);
   gpu::check(vkEndCommandBuffer(cmd_), "vkEndCommandBuffer");
+  return out;
+}
 
+void VulkanEvaluator::submit_and_wait(int out) {
   particle_sets_[active_].flush();
   VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
   submit.commandBufferCount = 1;
@@ -628,16 +665,9 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
   gpu::check(vkWaitForFences(ctx_->device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
   particle_sets_[active_].invalidate();
   records_[out].invalidate();
+}
 
-  const float* r = static_cast<const float*>(records_[out].mapped());
-  WeightPartial total;
-  total.max_log_weight = r[0];
-  total.weight_sum = r[1];
-  for (int a = 0; a < 3; ++a) total.position[a] = r[2 + a];
-  for (int a = 0; a < 4; ++a) total.quaternion[a] = r[5 + a];
-  total.fit_sum = r[9];
-  timings_.evaluate_ms = t0.ms();
-
+void VulkanEvaluator::read_gpu_timings() {
   if (queries_) {
     std::uint64_t stamps[kQueries];
     gpu::check(vkGetQueryPoolResults(ctx_->device(), queries_, 0, kQueries, sizeof(stamps), stamps,
@@ -657,8 +687,6 @@ WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& mode
     timings_.weight_invocations = invocations[0];
     timings_.reduce_invocations = invocations[1];
   }
-  check_validation();
-  return total.summary();
 }
 
 std::vector<ShaderStatistics> VulkanEvaluator::shader_statistics() const {
