@@ -127,6 +127,8 @@ class Image {
 // its longest line, its height reaches from the tops of ascenders (d, l, k: a little above the capitals, which are
 // 7 * scale high) to the bottoms of descenders (one line: about 9.6 * scale); lines are 12 * scale apart.
 Eigen::Vector2f text_size(const std::string& text, float scale = 2.0f);
+// Capitals are this many font units high (pixels at scale 1): what widgets align text boxes by.
+inline constexpr float kCapHeight = 7.0f;
 
 // Images laid out left to right in rows of `columns`, separated by gap pixels; cells are as large as the largest
 // image. Throws Error for an empty list.
