@@ -42,9 +42,8 @@ constexpr int kCandidates = 8;            // trajectory positions tried per poin
 constexpr float kKeyposeSpacing = 0.25f;  // m between the trajectory positions used
 constexpr int kMinCrossings = 3;          // sight lines through a voxel behind a surface that make it free
 
-static_assert(B == 8, "block_of() and local() shift and mask by 3 bits");
-inline Vector3i block_of(const Vector3i& v) { return {v.x() >> 3, v.y() >> 3, v.z() >> 3}; }
-inline int local_of(const Vector3i& v) { return (v.x() & 7) + B * ((v.y() & 7) + B * (v.z() & 7)); }
+inline Vector3i block_of(const Vector3i& v) { return TsdfMap::block_of(v); }
+inline int local_of(const Vector3i& v) { return TsdfMap::local_index(v); }
 inline std::uint64_t block_key(const Vector3i& b) {
   constexpr std::int64_t kBias = std::int64_t{1} << 20;
   return (static_cast<std::uint64_t>(b.x() + kBias) << 42) | (static_cast<std::uint64_t>(b.y() + kBias) << 21) |

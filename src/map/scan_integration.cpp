@@ -190,11 +190,8 @@ class Accumulator {
 
     // A ray touches a voxel only within half a voxel diagonal of the projection of the voxel's centre.
     float slack() const { return 0.5f * std::sqrt(3.0f) * acc_.voxel_; }
-    // Arithmetic shifts and masks are floor division and modulo by 8 for negative indices too.
-    static Vector3i block_of(const Vector3i& v) { return {v.x() >> 3, v.y() >> 3, v.z() >> 3}; }
-    static std::size_t local(const Vector3i& v) {
-      return static_cast<std::size_t>((v.x() & (B - 1)) + B * ((v.y() & (B - 1)) + B * (v.z() & (B - 1))));
-    }
+    static Vector3i block_of(const Vector3i& v) { return TsdfMap::block_of(v); }
+    static std::size_t local(const Vector3i& v) { return static_cast<std::size_t>(TsdfMap::local_index(v)); }
 
     // True if the block is inside the box and in the current slab (a walk may round into the next one); sets cell_.
     bool select(const Vector3i& block) {
@@ -218,7 +215,6 @@ class Accumulator {
     std::int64_t cell_ = -1;
     bool inside_ = false;
   };
-  static_assert(B == 8, "block_of() and local() shift and mask by 3 bits");
 
   // After the carving pass: every carved block with a face neighbour no ray reached (or outside the box) becomes
   // a frontier block, held voxel by voxel (all unknown until the frontier pass carves it). Returns how many.

@@ -121,15 +121,6 @@ Eigen::Vector3i TsdfMap::voxel_of(const Eigen::Vector3f& world) const {
 
 Eigen::Vector3f TsdfMap::center_of(const Eigen::Vector3i& voxel) const { return voxel.cast<float>() * voxel_size_; }
 
-Eigen::Vector3i TsdfMap::block_of(const Eigen::Vector3i& voxel) {
-  return {floor_div(voxel.x(), kBlockSize), floor_div(voxel.y(), kBlockSize), floor_div(voxel.z(), kBlockSize)};
-}
-
-int TsdfMap::local_index(const Eigen::Vector3i& voxel) {
-  const Eigen::Vector3i l = voxel - block_of(voxel) * kBlockSize;
-  return l.x() + kBlockSize * (l.y() + kBlockSize * l.z());
-}
-
 std::int64_t TsdfMap::coarse_cell(const Eigen::Vector3i& block) const {
   const Eigen::Vector3i c = block - min_block_;
   if ((c.array() < 0).any() || (c.array() >= dims_blocks_.array()).any()) return -1;

@@ -62,8 +62,15 @@ class TsdfMap {
   // Index arithmetic (exact integer floor division).
   Eigen::Vector3i voxel_of(const Eigen::Vector3f& world) const;  // nearest voxel centre
   Eigen::Vector3f center_of(const Eigen::Vector3i& voxel) const;
-  static Eigen::Vector3i block_of(const Eigen::Vector3i& voxel);
-  static int local_index(const Eigen::Vector3i& voxel);  // l within its block
+  // Arithmetic shifts and masks are floor division and modulo by 8 for negative indices too; inline, as the
+  // builders call them per voxel.
+  static Eigen::Vector3i block_of(const Eigen::Vector3i& voxel) {
+    static_assert(kBlockSize == 8, "block_of() and local_index() shift and mask by 3 bits");
+    return {voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3};
+  }
+  static int local_index(const Eigen::Vector3i& voxel) {  // l within its block
+    return (voxel.x() & 7) + kBlockSize * ((voxel.y() & 7) + kBlockSize * (voxel.z() & 7));
+  }
   // Coarse cell of a block, or -1 outside the bounding box.
   std::int64_t coarse_cell(const Eigen::Vector3i& block) const;
 
