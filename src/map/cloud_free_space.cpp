@@ -1,5 +1,6 @@
 // The cloud map builder's stage 5: free space carved along sight lines and enclosed regions filled, then the map
 // assembled (cloud_builder.hpp).
+#include "block_face.hpp"
 #include "cloud_builder.hpp"
 
 namespace tsdf_mcl::cloud_build {
@@ -99,21 +100,12 @@ void Builder::fill_enclosed() {
           }
           // The band block's voxel layer facing this block.
           const BandBlock& b = band_[slot_[ns]];
-          const int layer = dir > 0 ? 0 : B - 1;
-          for (int i = 0; i < B; ++i) {
-            for (int j = 0; j < B; ++j) {
-              Vector3i l;
-              l[axis] = layer;
-              l[(axis + 1) % 3] = i;
-              l[(axis + 2) % 3] = j;
-              const int li = l.x() + B * (l.y() + B * l.z());
-              const std::int16_t q = b.q[static_cast<std::size_t>(li)];
-              if (q == TsdfMap::kUnknownValue || (b.unsure[static_cast<std::size_t>(li >> 6)] >> (li & 63) & 1))
-                continue;
-              positive += q > 0;
-              negative += q < 0;
-            }
-          }
+          for_each_facing_voxel(axis, dir, [&](int li) {
+            const std::int16_t q = b.q[static_cast<std::size_t>(li)];
+            if (q == TsdfMap::kUnknownValue || (b.unsure[static_cast<std::size_t>(li >> 6)] >> (li & 63) & 1)) return;
+            positive += q > 0;
+            negative += q < 0;
+          });
         }
       }
     }

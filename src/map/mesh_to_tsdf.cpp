@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "block_face.hpp"
 #include "build_budget.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/map/map_builder.hpp"
@@ -316,7 +317,6 @@ void fill_free_space(TsdfMap& map, const BlockGrid& grid, const std::vector<int>
   const Vector3i& dims = map.dims_blocks();
   const std::int64_t cells = static_cast<std::int64_t>(band_of_cell.size());
   const std::int64_t stride[3] = {1, dims.x(), static_cast<std::int64_t>(dims.x()) * dims.y()};
-  constexpr int B = TsdfMap::kBlockSize;
   std::vector<char> visited(band_of_cell.size(), 0);
   std::vector<std::int64_t> component;
   for (std::int64_t seed = 0; seed < cells; ++seed) {
@@ -342,20 +342,13 @@ void fill_free_space(TsdfMap& map, const BlockGrid& grid, const std::vector<int>
             continue;
           }
           // The neighbour's voxel layer that faces this block.
-          const int layer = dir > 0 ? 0 : B - 1;
           const BlockValues& v = values[static_cast<std::size_t>(band)];
-          for (int i = 0; i < B; ++i) {
-            for (int j = 0; j < B; ++j) {
-              Vector3i l;
-              l[axis] = layer;
-              l[(axis + 1) % 3] = i;
-              l[(axis + 2) % 3] = j;
-              const std::int16_t q = v[static_cast<std::size_t>(l.x() + B * (l.y() + B * l.z()))];
-              if (q == TsdfMap::kUnknownValue) continue;
-              positive += q > 0;
-              negative += q < 0;
-            }
-          }
+          for_each_facing_voxel(axis, dir, [&](int li) {
+            const std::int16_t q = v[static_cast<std::size_t>(li)];
+            if (q == TsdfMap::kUnknownValue) return;
+            positive += q > 0;
+            negative += q < 0;
+          });
         }
       }
     }
