@@ -96,6 +96,14 @@ class VulkanEvaluator final : public SensorEvaluator {
   void check_validation() const;
   void release();
   void barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+  // The constructor's stages: the weighting layout and the uniform-points path; the command buffer, fence and
+  // query pools; the map's buffers (the block pool in chunks within maxStorageBufferRange) and their texel views;
+  // the pipelines; the descriptor sets.
+  void choose_layouts(const EvaluatorOptions& options);
+  void create_commands_and_queries();
+  void upload_map(const TsdfMap& map, std::uint64_t max_map_binding_bytes);
+  void create_pipelines(bool subgroup_reduction);
+  void allocate_descriptor_sets();
   // evaluate()'s stages: the weighting pass's constants; recording the point upload and the weighting dispatch;
   // recording the tree reduction (returns the records buffer that ends with the total); submitting and waiting for
   // the fence; reading the timestamps and pipeline statistics (profiling).
@@ -153,7 +161,21 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
       notify_validation_(!options.on_validation_message),
       map_texel_views_(options.map_texel_views) {
   if (map.empty()) throw Error("the map is empty");
-  const VkDevice dev = ctx_->device();
+  choose_layouts(options);
+  try {
+    create_commands_and_queries();
+    upload_map(map, options.max_map_binding_bytes);
+    create_pipelines(options.subgroup_reduction);
+    allocate_descriptor_sets();
+    reserve(1024, 1024);
+  } catch (...) {
+    release();
+    throw;
+  }
+  check_validation();
+}
+
+void VulkanEvaluator::choose_layouts(const EvaluatorOptions& options) {
   const gpu::DeviceCaps& caps = ctx_->caps();
   // Every invocation reads the same point at once. Through a uniform buffer that is one broadcast load on every
   // device; lavapipe turns each storage-buffer load into a loop over the SIMD lanes (measured: ~30 % of its
@@ -180,124 +202,130 @@ VulkanEvaluator::VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& opt
   subgroup_layout_workgroup_ =
       std::max(kSubgroupLayoutWorkgroup, caps.subgroup_size) / caps.subgroup_size * caps.subgroup_size;
   if (subgroup_layout_ && subgroup_layout_workgroup_ > caps.max_workgroup_size_x) subgroup_layout_ = false;
-  try {
-    VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = ctx_->queue_family();
-    gpu::check(vkCreateCommandPool(dev, &pool_info, nullptr, &command_pool_), "vkCreateCommandPool");
-    VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    alloc.commandPool = command_pool_;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    gpu::check(vkAllocateCommandBuffers(dev, &alloc, &cmd_), "vkAllocateCommandBuffers");
-    VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    gpu::check(vkCreateFence(dev, &fence_info, nullptr, &fence_), "vkCreateFence");
-    if (caps.timestamps) {
-      VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-      q.queryType = VK_QUERY_TYPE_TIMESTAMP;
-      q.queryCount = kQueries;
-      gpu::check(vkCreateQueryPool(dev, &q, nullptr, &queries_), "vkCreateQueryPool");
-      ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, queries_, "timestamps per pass");
-    }
-    if (caps.pipeline_statistics) {
-      VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-      q.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS;
-      q.queryCount = kStatQueries;
-      q.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_COMPUTE_SHADER_INVOCATIONS_BIT;
-      gpu::check(vkCreateQueryPool(dev, &q, nullptr, &statistics_), "vkCreateQueryPool");
-      ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, statistics_, "pipeline statistics per pass");
-    }
-    ctx_->name(VK_OBJECT_TYPE_COMMAND_BUFFER, cmd_, "sensor update");
-    ctx_->name(VK_OBJECT_TYPE_FENCE, fence_, "sensor update done");
+}
 
-    // The map, uploaded once: the coarse index in one buffer, the block pool split into chunks of a power-of-two
-    // number of blocks so that no binding exceeds maxStorageBufferRange (128 MiB on lavapipe).
-    std::uint64_t range = std::min<std::uint64_t>(caps.max_storage_buffer_range, 1ull << 30);
-    if (options.max_map_binding_bytes > 0) range = std::min(range, options.max_map_binding_bytes);
-    const std::uint64_t coarse_bytes = map.coarse_index().size() * sizeof(std::uint32_t);
-    if (coarse_bytes > range) {
-      throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) +
-                  " MiB) exceeds the device's storage buffer range");
-    }
-    const std::uint64_t block_bytes = TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
-    chunk_shift_ = 0;
-    while ((block_bytes << (chunk_shift_ + 1)) <= range && chunk_shift_ < 24) ++chunk_shift_;
-    const std::size_t blocks_per_chunk = std::size_t{1} << chunk_shift_;
-    const std::size_t blocks = map.block_count();
-    const std::size_t chunks = std::max<std::size_t>(1, (blocks + blocks_per_chunk - 1) / blocks_per_chunk);
-    if (chunks > kMaxPoolChunks) {
-      throw Error("map block pool (" + std::to_string(blocks * block_bytes >> 20) + " MiB) exceeds " +
-                  std::to_string(kMaxPoolChunks) + " storage buffers of " +
-                  std::to_string((blocks_per_chunk * block_bytes) >> 20) + " MiB on this device");
-    }
-    const std::uint64_t max_texels = std::uint64_t{caps.max_texel_buffer_elements} * sizeof(std::uint32_t);
-    if (coarse_bytes > max_texels || (block_bytes << chunk_shift_) > max_texels) map_texel_views_ = false;
-    const VkBufferUsageFlags map_usage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
-    coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
-    ctx_->name(VK_OBJECT_TYPE_BUFFER, coarse_.handle(), "map coarse index");
-    gpu::upload(*ctx_, command_pool_, coarse_, map.coarse_index().data(), coarse_bytes);
-    for (std::size_t c = 0; c < chunks; ++c) {
-      const std::size_t first = c * blocks_per_chunk;
-      const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
-      const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
-      pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
-      ctx_->name(VK_OBJECT_TYPE_BUFFER, pool_chunks_.back().handle(), "map block pool chunk");
-      gpu::upload(*ctx_, command_pool_, pool_chunks_.back(), map.block_pool().data() + first * TsdfMap::kWordsPerBlock,
-                  count * block_bytes);
-    }
-    // The views are bound even when the storage bindings are read (the layout has both): they cost nothing.
-    coarse_view_ = gpu::TexelView(*ctx_, coarse_);
-    for (const gpu::Buffer& chunk : pool_chunks_) pool_views_.emplace_back(*ctx_, chunk);
-    table_ = gpu::Buffer(*ctx_, kernel::kTableSize * sizeof(float), gpu::Buffer::Use::kDeviceLocal, map_usage);
-    ctx_->name(VK_OBJECT_TYPE_BUFFER, table_.handle(), "nearest lookup terms");
-    table_view_ = gpu::TexelView(*ctx_, table_);
-
-    reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
-        *ctx_,
-        caps.subgroup_arithmetic && options.subgroup_reduction
-            ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
-            : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
-        std::vector<VkDescriptorType>(kReduceBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
-        sizeof(gpu::ReducePushConstants), reduce_specialization(), "reduce");
-    // Created here rather than on first use so that the first update is not slowed by a pipeline compile.
-    EndpointModel default_model;
-    endpoint_pipeline(default_model, uniform_point_capacity_ > 0);
-
-    const VkDescriptorPoolSize sizes[3] = {
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * kStorageBindings + 6 * kReduceBindings},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * (kTexelBindings + kTableBindings)}};
-    VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-    dp.maxSets = 8;
-    dp.poolSizeCount = 3;
-    dp.pPoolSizes = sizes;
-    gpu::check(vkCreateDescriptorPool(dev, &dp, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
-    const VkDescriptorSetLayout endpoint_layout = endpoint_pipelines_.begin()->second->set_layout();
-    const VkDescriptorSetLayout layouts[8] = {endpoint_layout,
-                                              endpoint_layout,
-                                              reduce_pipeline_->set_layout(),
-                                              reduce_pipeline_->set_layout(),
-                                              reduce_pipeline_->set_layout(),
-                                              reduce_pipeline_->set_layout(),
-                                              reduce_pipeline_->set_layout(),
-                                              reduce_pipeline_->set_layout()};
-    VkDescriptorSetAllocateInfo ds{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    ds.descriptorPool = descriptor_pool_;
-    ds.descriptorSetCount = 8;
-    ds.pSetLayouts = layouts;
-    VkDescriptorSet sets[8];
-    gpu::check(vkAllocateDescriptorSets(dev, &ds, sets), "vkAllocateDescriptorSets");
-    endpoint_sets_[0] = sets[0];
-    endpoint_sets_[1] = sets[1];
-    for (int s = 0; s < 2; ++s)
-      for (int k = 0; k < 3; ++k) reduce_sets_[s][k] = sets[2 + 3 * s + k];
-
-    reserve(1024, 1024);
-  } catch (...) {
-    release();
-    throw;
+void VulkanEvaluator::create_commands_and_queries() {
+  const VkDevice dev = ctx_->device();
+  const gpu::DeviceCaps& caps = ctx_->caps();
+  VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pool_info.queueFamilyIndex = ctx_->queue_family();
+  gpu::check(vkCreateCommandPool(dev, &pool_info, nullptr, &command_pool_), "vkCreateCommandPool");
+  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  alloc.commandPool = command_pool_;
+  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  alloc.commandBufferCount = 1;
+  gpu::check(vkAllocateCommandBuffers(dev, &alloc, &cmd_), "vkAllocateCommandBuffers");
+  VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  gpu::check(vkCreateFence(dev, &fence_info, nullptr, &fence_), "vkCreateFence");
+  if (caps.timestamps) {
+    VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    q.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    q.queryCount = kQueries;
+    gpu::check(vkCreateQueryPool(dev, &q, nullptr, &queries_), "vkCreateQueryPool");
+    ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, queries_, "timestamps per pass");
   }
-  check_validation();
+  if (caps.pipeline_statistics) {
+    VkQueryPoolCreateInfo q{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    q.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS;
+    q.queryCount = kStatQueries;
+    q.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_COMPUTE_SHADER_INVOCATIONS_BIT;
+    gpu::check(vkCreateQueryPool(dev, &q, nullptr, &statistics_), "vkCreateQueryPool");
+    ctx_->name(VK_OBJECT_TYPE_QUERY_POOL, statistics_, "pipeline statistics per pass");
+  }
+  ctx_->name(VK_OBJECT_TYPE_COMMAND_BUFFER, cmd_, "sensor update");
+  ctx_->name(VK_OBJECT_TYPE_FENCE, fence_, "sensor update done");
+}
+
+void VulkanEvaluator::upload_map(const TsdfMap& map, std::uint64_t max_map_binding_bytes) {
+  const gpu::DeviceCaps& caps = ctx_->caps();
+  // The map, uploaded once: the coarse index in one buffer, the block pool split into chunks of a power-of-two
+  // number of blocks so that no binding exceeds maxStorageBufferRange (128 MiB on lavapipe).
+  std::uint64_t range = std::min<std::uint64_t>(caps.max_storage_buffer_range, 1ull << 30);
+  if (max_map_binding_bytes > 0) range = std::min(range, max_map_binding_bytes);
+  const std::uint64_t coarse_bytes = map.coarse_index().size() * sizeof(std::uint32_t);
+  if (coarse_bytes > range) {
+    throw Error("map coarse index (" + std::to_string(coarse_bytes >> 20) +
+                " MiB) exceeds the device's storage buffer range");
+  }
+  const std::uint64_t block_bytes = TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
+  chunk_shift_ = 0;
+  while ((block_bytes << (chunk_shift_ + 1)) <= range && chunk_shift_ < 24) ++chunk_shift_;
+  const std::size_t blocks_per_chunk = std::size_t{1} << chunk_shift_;
+  const std::size_t blocks = map.block_count();
+  const std::size_t chunks = std::max<std::size_t>(1, (blocks + blocks_per_chunk - 1) / blocks_per_chunk);
+  if (chunks > kMaxPoolChunks) {
+    throw Error("map block pool (" + std::to_string(blocks * block_bytes >> 20) + " MiB) exceeds " +
+                std::to_string(kMaxPoolChunks) + " storage buffers of " +
+                std::to_string((blocks_per_chunk * block_bytes) >> 20) + " MiB on this device");
+  }
+  const std::uint64_t max_texels = std::uint64_t{caps.max_texel_buffer_elements} * sizeof(std::uint32_t);
+  if (coarse_bytes > max_texels || (block_bytes << chunk_shift_) > max_texels) map_texel_views_ = false;
+  const VkBufferUsageFlags map_usage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
+  coarse_ = gpu::Buffer(*ctx_, coarse_bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
+  ctx_->name(VK_OBJECT_TYPE_BUFFER, coarse_.handle(), "map coarse index");
+  gpu::upload(*ctx_, command_pool_, coarse_, map.coarse_index().data(), coarse_bytes);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const std::size_t first = c * blocks_per_chunk;
+    const std::size_t count = std::min(blocks_per_chunk, blocks - std::min(blocks, first));
+    const VkDeviceSize bytes = std::max<VkDeviceSize>(count, 1) * block_bytes;
+    pool_chunks_.emplace_back(*ctx_, bytes, gpu::Buffer::Use::kDeviceLocal, map_usage);
+    ctx_->name(VK_OBJECT_TYPE_BUFFER, pool_chunks_.back().handle(), "map block pool chunk");
+    gpu::upload(*ctx_, command_pool_, pool_chunks_.back(), map.block_pool().data() + first * TsdfMap::kWordsPerBlock,
+                count * block_bytes);
+  }
+  // The views are bound even when the storage bindings are read (the layout has both): they cost nothing.
+  coarse_view_ = gpu::TexelView(*ctx_, coarse_);
+  for (const gpu::Buffer& chunk : pool_chunks_) pool_views_.emplace_back(*ctx_, chunk);
+  table_ = gpu::Buffer(*ctx_, kernel::kTableSize * sizeof(float), gpu::Buffer::Use::kDeviceLocal, map_usage);
+  ctx_->name(VK_OBJECT_TYPE_BUFFER, table_.handle(), "nearest lookup terms");
+  table_view_ = gpu::TexelView(*ctx_, table_);
+}
+
+void VulkanEvaluator::create_pipelines(bool subgroup_reduction) {
+  const gpu::DeviceCaps& caps = ctx_->caps();
+  reduce_pipeline_ = std::make_unique<gpu::ComputePipeline>(
+      *ctx_,
+      caps.subgroup_arithmetic && subgroup_reduction
+          ? gpu::ShaderCode{kReduceSubgroupSpirv, std::size(kReduceSubgroupSpirv)}
+          : gpu::ShaderCode{kReduceSharedSpirv, std::size(kReduceSharedSpirv)},
+      std::vector<VkDescriptorType>(kReduceBindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      sizeof(gpu::ReducePushConstants), reduce_specialization(), "reduce");
+  // Created here rather than on first use so that the first update is not slowed by a pipeline compile.
+  EndpointModel default_model;
+  endpoint_pipeline(default_model, uniform_point_capacity_ > 0);
+}
+
+void VulkanEvaluator::allocate_descriptor_sets() {
+  const VkDevice dev = ctx_->device();
+  const VkDescriptorPoolSize sizes[3] = {
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * kStorageBindings + 6 * kReduceBindings},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * (kTexelBindings + kTableBindings)}};
+  VkDescriptorPoolCreateInfo dp{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dp.maxSets = 8;
+  dp.poolSizeCount = 3;
+  dp.pPoolSizes = sizes;
+  gpu::check(vkCreateDescriptorPool(dev, &dp, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
+  const VkDescriptorSetLayout endpoint_layout = endpoint_pipelines_.begin()->second->set_layout();
+  const VkDescriptorSetLayout layouts[8] = {endpoint_layout,
+                                            endpoint_layout,
+                                            reduce_pipeline_->set_layout(),
+                                            reduce_pipeline_->set_layout(),
+                                            reduce_pipeline_->set_layout(),
+                                            reduce_pipeline_->set_layout(),
+                                            reduce_pipeline_->set_layout(),
+                                            reduce_pipeline_->set_layout()};
+  VkDescriptorSetAllocateInfo ds{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  ds.descriptorPool = descriptor_pool_;
+  ds.descriptorSetCount = 8;
+  ds.pSetLayouts = layouts;
+  VkDescriptorSet sets[8];
+  gpu::check(vkAllocateDescriptorSets(dev, &ds, sets), "vkAllocateDescriptorSets");
+  endpoint_sets_[0] = sets[0];
+  endpoint_sets_[1] = sets[1];
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 3; ++k) reduce_sets_[s][k] = sets[2 + 3 * s + k];
 }
 
 VulkanEvaluator::~VulkanEvaluator() { release(); }
