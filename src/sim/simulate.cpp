@@ -425,6 +425,102 @@ std::size_t points_on(const Landmark& landmark, const std::vector<int>& triangle
       std::count_if(triangles.begin(), triangles.end(), [&](int t) { return t >= first && t < end; }));
 }
 
+// A sweep that becomes a scan: its index and end time, the sensor's poses at its start and end, the odometry at
+// its end, the walkers during it.
+struct Sweep {
+  std::size_t index;
+  double time;
+  Pose start, end, odom_T_sensor;
+  std::vector<Walker> walkers;
+};
+
+// Which sweeps become scans, and their poses: sequential, as odometry integrates every sweep.
+std::vector<Sweep> plan_sweeps(const SimulationOptions& options, const SensorTrajectory& trajectory, const Crowd& crowd,
+                               std::size_t sweeps, double period) {
+  std::vector<Sweep> kept;
+  Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream), trajectory.first_odometry_pose(period));
+  for (std::size_t i = 0; i < sweeps; ++i) {
+    const double t = static_cast<double>(i + 1) * period;
+    const Pose sensor_end = trajectory.sensor_pose(t);
+    const Pose odom_T_sensor = odometry.step(trajectory.odometry_frame_pose(t)) * trajectory.odometry_frame_T_sensor();
+    if (!kept.empty() && options.scan_spacing_m > 0.0) {
+      const Pose moved = kept.back().end.inverse() * sensor_end;
+      if (moved.translation().norm() < options.scan_spacing_m &&
+          Eigen::AngleAxisd(moved.linear()).angle() < kScanSpacingTurn) {
+        continue;
+      }
+    }
+    const double start_time = options.motion_distortion ? t - period : t;
+    kept.push_back({i, t, trajectory.sensor_pose(start_time), sensor_end, odom_T_sensor, crowd.during(start_time, t)});
+  }
+  return kept;
+}
+
+// What the scans showed: the summary's counts, the landmark's and the walkers' points per scan.
+struct ScanResults {
+  SimulationSummary summary;
+  LandmarkSightings sightings;
+  WalkerSightings walker_sightings;
+};
+
+// The kept sweeps simulated and written, each scan reported to options.on_scan and options.progress.
+ScanResults write_scans(const SimulationOptions& options, const RayCaster& ray_caster, const LidarModel& lidar,
+                        const BuiltInScene& scene, const Route& route, const SensorTrajectory& trajectory,
+                        const std::vector<Sweep>& kept, const fs::path& out_dir) {
+  ScanResults results;
+  SimulationSummary& summary = results.summary;
+  LandmarkSightings& sightings = results.sightings;
+  WalkerSightings& walker_sightings = results.walker_sightings;
+  // Scans in batches, one scan per thread: a fork and join per batch rather than per scan keeps both cores
+  // busy even when other processes compete for them.
+  DatasetWriter writer(out_dir);
+  const std::uint64_t noise_seed = mix_key(options.seed, kScanNoiseStream);
+  const bool label_points = scene.landmark || options.walkers > 0;
+  constexpr std::size_t kBatch = 32;
+  std::vector<PointCloud> clouds(kBatch);
+  std::vector<std::vector<int>> triangles(kBatch);
+  std::vector<std::vector<std::uint16_t>> rings(options.on_scan ? kBatch : 0);
+  for (std::size_t first = 0; first < kept.size(); first += kBatch) {
+    const auto count = static_cast<std::ptrdiff_t>(std::min(kBatch, kept.size() - first));
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < count; ++k) {
+      const Sweep& sw = kept[first + static_cast<std::size_t>(k)];
+      const auto slot = static_cast<std::size_t>(k);
+      clouds[slot] = simulate_scan(
+          ray_caster, lidar, sw.start, sw.end, options.noise, mix_key(noise_seed, sw.index),
+          {sw.walkers, label_points ? &triangles[slot] : nullptr, options.on_scan ? &rings[slot] : nullptr});
+    }
+    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
+      const Sweep& sw = kept[first + k];
+      writer.add(sw.time, clouds[k], sw.end, sw.odom_T_sensor);
+      if (options.on_scan) {
+        options.on_scan(
+            {sw.time, &clouds[k], &rings[k], sw.end, sw.odom_T_sensor, trajectory.odometry_frame_T_sensor()});
+      }
+      if (scene.landmark) {
+        sightings.points.push_back(points_on(*scene.landmark, triangles[k]));
+        if (!sightings.first_scan && sightings.points.back() > 0) {
+          sightings.first_scan = summary.scans;
+          sightings.first_time_s = sw.time;
+          sightings.first_distance_m = route.distance_at(sw.time);
+        }
+      }
+      if (options.walkers > 0) {
+        walker_sightings.points.push_back(
+            static_cast<std::size_t>(std::count(triangles[k].begin(), triangles[k].end(), -1)));
+        std::vector<Eigen::Vector3f> feet;
+        for (const Walker& w : sw.walkers) feet.push_back(w.end);
+        walker_sightings.feet.push_back(std::move(feet));
+      }
+      ++summary.scans;
+      summary.points += clouds[k].size();
+      if (options.progress) options.progress(summary.scans, kept.size());
+    }
+  }
+  writer.close();
+  return results;
+}
+
 }  // namespace
 
 SimulationSummary simulate(const SimulationOptions& options, const fs::path& out_dir) {
@@ -470,88 +566,18 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   const auto sweeps = static_cast<std::size_t>(std::floor(route.duration() / period + 1e-9));
   if (sweeps == 0) throw Error("the route takes less than one scan period; ask for a longer duration or length");
 
-  // Which sweeps become scans, and their poses: sequential, as odometry integrates every sweep.
-  struct Sweep {
-    std::size_t index;
-    double time;
-    Pose start, end, odom_T_sensor;
-    std::vector<Walker> walkers;
-  };
-  std::vector<Sweep> kept;
-  Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream), trajectory.first_odometry_pose(period));
-  for (std::size_t i = 0; i < sweeps; ++i) {
-    const double t = static_cast<double>(i + 1) * period;
-    const Pose sensor_end = trajectory.sensor_pose(t);
-    const Pose odom_T_sensor = odometry.step(trajectory.odometry_frame_pose(t)) * trajectory.odometry_frame_T_sensor();
-    if (!kept.empty() && options.scan_spacing_m > 0.0) {
-      const Pose moved = kept.back().end.inverse() * sensor_end;
-      if (moved.translation().norm() < options.scan_spacing_m &&
-          Eigen::AngleAxisd(moved.linear()).angle() < kScanSpacingTurn) {
-        continue;
-      }
-    }
-    const double start_time = options.motion_distortion ? t - period : t;
-    kept.push_back({i, t, trajectory.sensor_pose(start_time), sensor_end, odom_T_sensor, crowd.during(start_time, t)});
-  }
+  const std::vector<Sweep> kept = plan_sweeps(options, trajectory, crowd, sweeps, period);
 
-  // Scans in batches, one scan per thread: a fork and join per batch rather than per scan keeps both cores
-  // busy even when other processes compete for them.
-  DatasetWriter writer(out_dir);
-  const std::uint64_t noise_seed = mix_key(options.seed, kScanNoiseStream);
-  SimulationSummary summary;
-  LandmarkSightings sightings;
-  WalkerSightings walker_sightings;
-  const bool label_points = scene.landmark || options.walkers > 0;
-  constexpr std::size_t kBatch = 32;
-  std::vector<PointCloud> clouds(kBatch);
-  std::vector<std::vector<int>> triangles(kBatch);
-  std::vector<std::vector<std::uint16_t>> rings(options.on_scan ? kBatch : 0);
-  for (std::size_t first = 0; first < kept.size(); first += kBatch) {
-    const auto count = static_cast<std::ptrdiff_t>(std::min(kBatch, kept.size() - first));
-#pragma omp parallel for schedule(dynamic, 1)
-    for (std::ptrdiff_t k = 0; k < count; ++k) {
-      const Sweep& sw = kept[first + static_cast<std::size_t>(k)];
-      const auto slot = static_cast<std::size_t>(k);
-      clouds[slot] = simulate_scan(
-          ray_caster, lidar, sw.start, sw.end, options.noise, mix_key(noise_seed, sw.index),
-          {sw.walkers, label_points ? &triangles[slot] : nullptr, options.on_scan ? &rings[slot] : nullptr});
-    }
-    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
-      const Sweep& sw = kept[first + k];
-      writer.add(sw.time, clouds[k], sw.end, sw.odom_T_sensor);
-      if (options.on_scan) {
-        options.on_scan(
-            {sw.time, &clouds[k], &rings[k], sw.end, sw.odom_T_sensor, trajectory.odometry_frame_T_sensor()});
-      }
-      if (scene.landmark) {
-        sightings.points.push_back(points_on(*scene.landmark, triangles[k]));
-        if (!sightings.first_scan && sightings.points.back() > 0) {
-          sightings.first_scan = summary.scans;
-          sightings.first_time_s = sw.time;
-          sightings.first_distance_m = route.distance_at(sw.time);
-        }
-      }
-      if (options.walkers > 0) {
-        walker_sightings.points.push_back(
-            static_cast<std::size_t>(std::count(triangles[k].begin(), triangles[k].end(), -1)));
-        std::vector<Eigen::Vector3f> feet;
-        for (const Walker& w : sw.walkers) feet.push_back(w.end);
-        walker_sightings.feet.push_back(std::move(feet));
-      }
-      ++summary.scans;
-      summary.points += clouds[k].size();
-      if (options.progress) options.progress(summary.scans, kept.size());
-    }
-  }
-  writer.close();
-
+  ScanResults results = write_scans(options, ray_caster, lidar, scene, route, trajectory, kept, out_dir);
+  SimulationSummary& summary = results.summary;
+  const LandmarkSightings& sightings = results.sightings;
   summary.route_length_m = route.length();
   summary.duration_s = route.duration();
   summary.traversable_area_m2 = grid.free_area();
   summary.has_landmark = scene.landmark.has_value();
   summary.landmark_first_seen_scan = sightings.first_scan;
   if (scene.landmark) write_landmark_points(out_dir / "landmark_points.txt", sightings);
-  if (options.walkers > 0) write_walkers(out_dir / "walkers.txt", walker_sightings);
+  if (options.walkers > 0) write_walkers(out_dir / "walkers.txt", results.walker_sightings);
   write_description(out_dir / "simulation.json",
                     {options, scene, lidar, robot, route, obstacles, sightings, crowd, sweeps, summary});
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
