@@ -25,6 +25,19 @@ ldd "$program" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | while read -r n
   cp -L "$path" "$out/lib/$name"
 done
 [ -f "$out/lib/libvulkan.so.1" ] || { echo "bundle.sh: the program does not load libvulkan.so.1?" >&2; exit 1; }
+# NVIDIA's Vulkan ICD (libGLX_nvidia.so.0) needs glvnd's libEGL, libGLdispatch and libGLX, which a machine with the
+# driver alone (a container with the driver mounted, as on the H200 machine tried here) may lack: "Could not get
+# 'vkCreateInstance' via 'vk_icdGetInstanceProcAddr' for ICD libGLX_nvidia.so.0" (libEGL.so.1 was the one missing
+# there). Bundled from beside the Vulkan loader where this machine has them (Debian: libegl1, libglvnd0, libglx0).
+vulkan_dir=$(dirname "$(ldd "$program" | awk '$1 == "libvulkan.so.1" {print $3}')")
+for glvnd in libEGL.so.1 libGLdispatch.so.0 libGLX.so.0; do
+  if [ -e "$vulkan_dir/$glvnd" ]; then
+    cp -L "$vulkan_dir/$glvnd" "$out/lib/$glvnd"
+  else
+    echo "bundle.sh: no $glvnd here (libegl1, libglvnd0, libglx0): a GPU machine without it may not load NVIDIA's" \
+      "Vulkan driver" >&2
+  fi
+done
 
 cat >"$out/tsdf-mcl" <<'SCRIPT'
 #!/bin/sh

@@ -13,7 +13,7 @@ arm64=0
 
 packages=(
   build-essential cmake ninja-build pkg-config git ccache
-  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
+  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools libegl1 libglvnd0 libglx0
   glslc glslang-tools spirv-tools
   libeigen3-dev libglm-dev libgtest-dev
   libhdf5-dev libembree-dev nlohmann-json3-dev libyaml-cpp-dev libcairo2-dev fonts-dejavu-core libnanoflann-dev zlib1g-dev
