@@ -22,17 +22,18 @@ void SubsetFirstOptions::validate() const {
 
 SubsetFirstWeighing::SubsetFirstWeighing(const SubsetFirstOptions& options) : options_(options) { options_.validate(); }
 
-bool SubsetFirstWeighing::applies(std::size_t n, std::size_t points, const EndpointModel& model) const {
-  return options_.points > 0 && 2 * options_.points <= points &&
-         n >= std::max<std::size_t>(options_.min_particles, 2) && refined_count(options_.share, n) < n &&
-         model.likelihood == Likelihood::kProduct;
+bool SubsetFirstWeighing::applies(std::size_t n, std::size_t points, const EndpointModel& model,
+                                  const SensorEvaluator& evaluator) const {
+  return options_.points > 0 && (options_.on_discrete_gpu || !evaluator.discrete_gpu()) &&
+         2 * options_.points <= points && n >= std::max<std::size_t>(options_.min_particles, 2) &&
+         refined_count(options_.share, n) < n && model.likelihood == Likelihood::kProduct;
 }
 
 WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t n,
                                          const std::vector<Eigen::Vector3f>& points, const EndpointModel& model,
                                          const Eigen::Quaternionf& reference, UpdateTimings* timings) {
   refined_.clear();
-  if (!applies(n, points.size(), model)) {
+  if (!applies(n, points.size(), model, evaluator)) {
     evaluator.set_points(points);
     const WeightSummary summary = evaluator.evaluate(n, model, reference);
     if (timings) *timings = evaluator.last_timings();

@@ -75,6 +75,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::string device_name() const override { return ctx_->caps().name; }
   std::string map_reads() const override { return map_texel_views_ ? "texel" : "storage"; }
   std::string weight_layout() const override { return subgroup_layout_ ? "subgroup" : "invocation"; }
+  bool discrete_gpu() const override { return ctx_->caps().type == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU; }
   void reserve(std::size_t particles, std::size_t points) override;
   ParticleArrays particles() override { return view(active_); }
   ParticleArrays spare_particles() override { return view(1 - active_); }

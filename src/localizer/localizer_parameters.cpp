@@ -146,7 +146,8 @@ std::vector<ParameterSpec> make_specs() {
        "adaptive tempering: keep at least R * particles effective particles per update (0 = off)", adv},
       {"subset_points", "K", std::to_string(f.subset_first.points),
        "subset first: weigh every particle on K of the scan's points first and only the best subset_share on all "
-       "of them, in sets of at least subset_min_particles (0 = off)",
+       "of them, in sets of at least subset_min_particles (0 = off; not on a discrete GPU, where the whole scan is "
+       "faster)",
        adv},
       {"subset_share", "S", num(f.subset_first.share), "subset first: share of the particles weighed on the whole scan",
        adv},

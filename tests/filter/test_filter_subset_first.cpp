@@ -75,7 +75,7 @@ TEST(SubsetFirst, TheBestShareGetsTheWholeScanTheRestTheScaledSubset) {
   CpuEvaluator cpu(s.map, 2);
   s.place(cpu);
   SubsetFirstWeighing weighing(small_sets());
-  ASSERT_TRUE(weighing.applies(kParticles, kPoints, model));
+  ASSERT_TRUE(weighing.applies(kParticles, kPoints, model, cpu));
   UpdateTimings timings;
   const WeightSummary summary =
       weighing.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), &timings);
@@ -106,11 +106,11 @@ TEST(SubsetFirst, SmallSetsAndTheSummedFormAreWeighedWhole) {
   const Scene s;
   SubsetFirstWeighing weighing(small_sets());
   EndpointModel model = tempered_model();
-  EXPECT_FALSE(weighing.applies(999, kPoints, model)) << "below min_particles";
-  EXPECT_FALSE(weighing.applies(kParticles, 47, model)) << "a scan of fewer than twice the first pass's points";
-  model.likelihood = Likelihood::kSum;
-  EXPECT_FALSE(weighing.applies(kParticles, kPoints, model)) << "the summed form does not scale with the points";
   CpuEvaluator cpu(s.map, 2), reference(s.map, 2);
+  EXPECT_FALSE(weighing.applies(999, kPoints, model, cpu)) << "below min_particles";
+  EXPECT_FALSE(weighing.applies(kParticles, 47, model, cpu)) << "a scan of fewer than twice the first pass's points";
+  model.likelihood = Likelihood::kSum;
+  EXPECT_FALSE(weighing.applies(kParticles, kPoints, model, cpu)) << "the summed form does not scale with the points";
   s.place(cpu);
   s.place(reference);
   weighing.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
@@ -123,15 +123,59 @@ TEST(SubsetFirst, SmallSetsAndTheSummedFormAreWeighedWhole) {
   EXPECT_THROW(SubsetFirstWeighing{bad}, Error);
 }
 
+// An evaluator that says it runs on a discrete GPU (the CPU's arithmetic underneath).
+class DiscreteGpuLike final : public SensorEvaluator {
+ public:
+  explicit DiscreteGpuLike(const TsdfMap& map) : cpu_(map, 2) {}
+  std::string backend() const override { return "test"; }
+  std::string device_name() const override { return "a discrete GPU"; }
+  bool discrete_gpu() const override { return true; }
+  void reserve(std::size_t particles, std::size_t points) override { cpu_.reserve(particles, points); }
+  ParticleArrays particles() override { return cpu_.particles(); }
+  ParticleArrays spare_particles() override { return cpu_.spare_particles(); }
+  void swap_particles() override { cpu_.swap_particles(); }
+  void set_points(const std::vector<Eigen::Vector3f>& points) override { cpu_.set_points(points); }
+  WeightSummary evaluate(std::size_t n, const EndpointModel& model, const Eigen::Quaternionf& reference) override {
+    ++evaluations;
+    return cpu_.evaluate(n, model, reference);
+  }
+  const UpdateTimings& last_timings() const override { return cpu_.last_timings(); }
+  int evaluations = 0;
+
+ private:
+  CpuEvaluator cpu_;
+};
+
+TEST(SubsetFirst, ADiscreteGpuWeighsTheWholeScanUnlessAsked) {
+  const Scene s;
+  const EndpointModel model = tempered_model();
+  DiscreteGpuLike gpu(s.map);
+  s.place(gpu);
+  SubsetFirstWeighing weighing(small_sets());
+  EXPECT_FALSE(weighing.applies(kParticles, kPoints, model, gpu));
+  weighing.weigh(gpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
+  EXPECT_TRUE(weighing.refined().empty());
+  EXPECT_EQ(gpu.evaluations, 1) << "one pass over the whole scan";
+  SubsetFirstOptions asked = small_sets();
+  asked.on_discrete_gpu = true;
+  SubsetFirstWeighing forced(asked);
+  EXPECT_TRUE(forced.applies(kParticles, kPoints, model, gpu));
+  forced.weigh(gpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
+  EXPECT_EQ(gpu.evaluations, 3) << "two passes";
+  EXPECT_FALSE(forced.refined().empty());
+}
+
 TEST(SubsetFirst, VulkanAgreesWithTheCpu) {
   const Scene s;
+  SubsetFirstOptions options = small_sets();
+  options.on_discrete_gpu = true;  // the two passes on every device
   const std::unique_ptr<SensorEvaluator> gpu = test::make_vulkan(s.map);
   ASSERT_TRUE(gpu);
   CpuEvaluator cpu(s.map, 2);
   s.place(*gpu);
   s.place(cpu);
   const EndpointModel model = tempered_model();
-  SubsetFirstWeighing on_gpu(small_sets()), on_cpu(small_sets());
+  SubsetFirstWeighing on_gpu(options), on_cpu(options);
   const WeightSummary g = on_gpu.weigh(*gpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
   const WeightSummary c = on_cpu.weigh(cpu, kParticles, s.scan, model, Eigen::Quaternionf::Identity(), nullptr);
   // Float rounding may swap particles tied at the cut; elsewhere both chose alike and agree.

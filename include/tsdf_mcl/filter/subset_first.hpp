@@ -17,6 +17,9 @@ struct SubsetFirstOptions {
   std::size_t points = 64;            // the first pass's points, every k-th of the scan (0 = off)
   double share = 0.2;                 // of the particles, weighed on the whole scan
   std::size_t min_particles = 20000;  // smaller sets are weighed on the whole scan: their map reads are cached
+  // Also on a discrete GPU (SensorEvaluator::discrete_gpu)? Off: there the whole scan of 100k particles takes
+  // 0.7 ms and the two passes, with the host's selection between them, 4.8 ms (NVIDIA H200, docs/sensor-update.md).
+  bool on_discrete_gpu = false;
   void validate() const;
 };
 
@@ -25,8 +28,8 @@ class SubsetFirstWeighing {
   explicit SubsetFirstWeighing(const SubsetFirstOptions& options = {});
 
   // Whether weigh() takes two passes for n particles and this scan and model (only the product likelihood: its
-  // log-weight scales with the point count).
-  bool applies(std::size_t n, std::size_t points, const EndpointModel& model) const;
+  // log-weight scales with the point count) on `evaluator`.
+  bool applies(std::size_t n, std::size_t points, const EndpointModel& model, const SensorEvaluator& evaluator) const;
 
   // Log-weights of the evaluator's particles 0..n-1 (particles().log_weight), on the scale of the whole scan, and
   // the reduction over all of them (reduce_weights on the host when two passes ran). The spare set is

@@ -104,6 +104,9 @@ class SensorEvaluator {
   virtual std::string map_reads() const { return ""; }
   // Vulkan: "invocation" or "subgroup" per particle (EvaluatorOptions::weight_layout); empty elsewhere.
   virtual std::string weight_layout() const { return ""; }
+  // A discrete GPU: its own memory, thousands of lanes. Weighing on fewer points first does not pay there
+  // (SubsetFirstOptions::on_discrete_gpu).
+  virtual bool discrete_gpu() const { return false; }
 
   // Grows buffers if needed (never shrinks); invalidates previously returned ParticleArrays when it grows.
   virtual void reserve(std::size_t particles, std::size_t points) = 0;
