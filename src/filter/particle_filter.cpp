@@ -190,8 +190,12 @@ WeightSummary ParticleFilter::weigh_scan(std::size_t n, const std::vector<Eigen:
 
 double ParticleFilter::weigh_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points,
                                       const WeightSummary& summary, FilterStep& step) {
+  Stopwatch t0;
   prepare_weights(n, step);
+  step.timings.tempering_ms = t0.ms();
+  t0 = Stopwatch();
   weigh_hypotheses(n, points, step);
+  step.timings.hypotheses_ms = t0.ms();
   step.fit = belief_fit(n, summary, points.size());
   // Recovery follows the dominant hypothesis's inlier ratio: it falls when the track is lost and hardly moves
   // on a correct one (the likelihood-based fit dips by a third whenever the cloud spreads in a turn). The

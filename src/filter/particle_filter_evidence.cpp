@@ -14,24 +14,9 @@
 #include "tsdf_mcl/filter/hypothesis_weighting.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
 #include "tsdf_mcl/filter/scan_fit.hpp"
+#include "tsdf_mcl/filter/tempering.hpp"
 
 namespace tsdf_mcl {
-namespace {
-
-// Tempered weights exp(prior + beta * l - max) into w; returns their effective sample size.
-// The max and the exps in parallel (the tempering's bisection calls this 18 times an update: 7 ms for 100k
-// particles on one core); the sums sequential, so the result does not depend on the thread count.
-double tempered(const double* prior, const float* l, std::size_t n, double beta, double* w) {
-  const auto count = static_cast<std::ptrdiff_t>(n);
-  double max = -std::numeric_limits<double>::infinity();
-#pragma omp parallel for schedule(static) reduction(max : max) if (n >= kParallelParticles)
-  for (std::ptrdiff_t i = 0; i < count; ++i) max = std::max(max, prior[i] + beta * l[i]);
-#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
-  for (std::ptrdiff_t i = 0; i < count; ++i) w[i] = std::exp(prior[i] + beta * l[i] - max);
-  return effective_sample_size(w, n);
-}
-
-}  // namespace
 
 void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
   const ParticleArrays p = evaluator_.particles();
@@ -44,27 +29,11 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
   // them would hand their weight back to them whenever recovery floods a converged set.
   const std::size_t fresh = std::min(injected_end_, n) - std::min(injected_begin_, n);
   const double target = params_.min_ess_ratio * static_cast<double>(fresh < n ? n - fresh : n);
-  double beta = 1.0;
-  double ess = tempered(prior_log_weight_.data(), p.log_weight, n, 1.0, weights_.data());
-  if (ess < target) {
-    // ESS falls as beta grows (the weights sharpen): bisect for the largest beta that keeps the target, in
-    // log(beta) because useful values span orders of magnitude (1e-4 for a global belief of 100k particles).
-    double lo = std::log(1e-7);
-    double hi = 0.0;
-    for (int iteration = 0; iteration < 16; ++iteration) {
-      const double mid = 0.5 * (lo + hi);
-      if (tempered(prior_log_weight_.data(), p.log_weight, n, std::exp(mid), weights_.data()) >= target) {
-        lo = mid;
-      } else {
-        hi = mid;
-      }
-    }
-    beta = std::exp(lo);
-    ess = tempered(prior_log_weight_.data(), p.log_weight, n, beta, weights_.data());
-  }
+  const Tempering t = temper(prior_log_weight_.data(), p.log_weight, n, target, weights_.data());
+  const double beta = t.beta;
   for (std::size_t i = 0; i < n; ++i) post_log_weight_[i] = prior_log_weight_[i] + beta * p.log_weight[i];
   step.tempering = beta;
-  step.ess = ess;
+  step.ess = t.ess;
 }
 
 void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
@@ -99,31 +68,44 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
     if (g < h.size() && (heaviest[g] == n || weights_[i] > weights_[heaviest[g]])) heaviest[g] = i;
   }
   const ParticleArrays particles = evaluator_.particles();
-  // The hypotheses' refinements are independent (the map is read-only): one per thread.
-#pragma omp parallel for schedule(dynamic)
-  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
-    const auto r = static_cast<std::size_t>(rr);
-    std::vector<double> candidate_log;
-    totals[r] = -std::numeric_limits<double>::infinity();
-    std::vector<Pose> starts{h[r].pose};
+  // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
+  // of two starts each keep sixteen cores busy; the better start of each hypothesis wins (ties: the mean).
+  struct Start {
+    std::size_t hypothesis;
+    Pose pose;
+    double total = -std::numeric_limits<double>::infinity();
+    std::vector<double> log;
+  };
+  std::vector<Start> starts;
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    starts.push_back(Start{r, h[r].pose, -std::numeric_limits<double>::infinity(), {}});
     if (heaviest[r] < n) {
       Pose best = Pose::Identity();
       best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
       best.translation() = particles.position(heaviest[r]).cast<double>();
-      starts.push_back(best);
+      starts.push_back(Start{r, best, -std::numeric_limits<double>::infinity(), {}});
     }
-    for (const Pose& start : starts) {
-      const Pose candidate = refine_pose(map_, start, points);
-      const Eigen::Quaternionf q(Eigen::Quaterniond(candidate.linear()).cast<float>());
-      point_log_likelihoods(map_, plain, candidate.translation().cast<float>(), q, points, candidate_log);
-      double total = 0.0;
-      for (double l : candidate_log) total += l;
-      if (total > totals[r]) {
-        totals[r] = total;
-        refined[r] = candidate;
-        point_log[r].swap(candidate_log);
-      }
+  }
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
+    Start& s = starts[static_cast<std::size_t>(ss)];
+    s.pose = refine_pose(map_, s.pose, points);
+    const Eigen::Quaternionf q(Eigen::Quaterniond(s.pose.linear()).cast<float>());
+    point_log_likelihoods(map_, plain, s.pose.translation().cast<float>(), q, points, s.log);
+    s.total = 0.0;
+    for (double l : s.log) s.total += l;
+  }
+  for (std::size_t r = 0; r < h.size(); ++r) totals[r] = -std::numeric_limits<double>::infinity();
+  for (Start& s : starts) {
+    if (s.total > totals[s.hypothesis]) {
+      totals[s.hypothesis] = s.total;
+      refined[s.hypothesis] = s.pose;
+      point_log[s.hypothesis].swap(s.log);
     }
+  }
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
+    const auto r = static_cast<std::size_t>(rr);
     fits[r] = ray_fit(map_, refined[r], points, params_.inlier_distance, 0.4f, &observed[r]);
   }
   for (std::size_t r = 0; r < h.size(); ++r) {

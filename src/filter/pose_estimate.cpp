@@ -13,6 +13,7 @@ namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
 constexpr std::uint32_t kNoCell = 0xFFFFFFFFu;
+constexpr std::size_t kDescribeChunk = 4096;  // particles a partial sum: fixed, so sums do not depend on threads
 
 std::uint64_t cell_key(const PoseEstimator::Cell& c) {
   std::uint64_t key = 0x51ED27A4u;
@@ -133,35 +134,34 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   return e;
 }
 
-std::uint32_t PoseEstimator::cell_of(const Cell& c, bool insert) {
-  const std::size_t slots = keys_.size();
-  const std::uint64_t key = cell_key(c);
+std::uint32_t PoseEstimator::cell_of(const Cell& c, std::uint64_t key, bool insert) {
+  const std::size_t slots = table_.size();
   std::size_t s = static_cast<std::size_t>(key) & (slots - 1);
-  while (keys_[s] != 0 && keys_[s] != key) s = (s + 1) & (slots - 1);
-  if (keys_[s] != 0) return slot_cell_[s];
+  // Equal hashes of different cells (64 bits: never met) would merge them, which costs a little clustering.
+  while (table_[s].key != 0 && table_[s].key != key) s = (s + 1) & (slots - 1);
+  if (table_[s].key != 0) return table_[s].cell;
   if (!insert) return kNoCell;
-  keys_[s] = key;
-  slot_cell_[s] = static_cast<std::uint32_t>(cells_.size());
+  table_[s].key = key;
+  table_[s].cell = static_cast<std::uint32_t>(cells_.size());
   cells_.push_back(c);
   cell_weight_.push_back(0.0);
-  return slot_cell_[s];
+  return table_[s].cell;
 }
 
 void PoseEstimator::bin_particles(const ParticleArrays& p, const double* w, std::size_t n, double threshold) {
   // Cells of the (x, y, z, yaw, up axis) grid.
   std::size_t slots = 16;
   while (slots < 2 * n) slots *= 2;
-  if (keys_.size() < slots) {
-    keys_.resize(slots);
-    slot_cell_.resize(slots);
-  }
-  std::fill(keys_.begin(), keys_.end(), 0u);
+  if (table_.size() < slots) table_.resize(slots);
+  std::fill(table_.begin(), table_.end(), Slot{});
   cells_.clear();
   cell_weight_.clear();
   particle_cell_.assign(n, kNoCell);
-  // Each particle's cell (atan2 and a rotation matrix a particle: in parallel), then the cells in particle order
-  // into the table (sequential: the cells' numbering, and so every tie below, does not depend on the threads).
+  // Each particle's cell and its hash (atan2, a rotation matrix and ten mixes a particle: in parallel), then the
+  // cells in particle order into the table (sequential: the cells' numbering, and so every tie below, does not
+  // depend on the threads).
   particle_cells_.resize(n);
+  particle_keys_.resize(n);
   const float inv_xyz = 1.0f / options_.cluster_bin_xyz;
 #pragma omp parallel for schedule(static) if (n >= kParallelParticles)
   for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(n); ++k) {
@@ -176,10 +176,15 @@ void PoseEstimator::bin_particles(const ParticleArrays& p, const double* w, std:
     particle_cells_[i] =
         Cell{static_cast<int>(std::floor(pos.x() * inv_xyz)), static_cast<int>(std::floor(pos.y() * inv_xyz)),
              static_cast<int>(std::floor(pos.z() * inv_xyz)), yc, up_axis};
+    particle_keys_[i] = cell_key(particle_cells_[i]);
   }
+  // A global belief's cells spread over a table of megabytes: each probe a cache miss unless fetched ahead.
+  constexpr std::size_t kAhead = 16;
+  const std::size_t mask = table_.size() - 1;
   for (std::size_t i = 0; i < n; ++i) {
+    if (i + kAhead < n) __builtin_prefetch(&table_[static_cast<std::size_t>(particle_keys_[i + kAhead]) & mask]);
     if (!(w[i] > threshold)) continue;
-    const std::uint32_t cell = cell_of(particle_cells_[i], true);
+    const std::uint32_t cell = cell_of(particle_cells_[i], particle_keys_[i], true);
     particle_cell_[i] = cell;
     cell_weight_[cell] += w[i];
   }
@@ -199,11 +204,18 @@ void PoseEstimator::join_neighbour_cells() {
 #pragma omp parallel for schedule(static) if (cells >= kParallelParticles)
   for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(cells); ++k) {
     const auto c = static_cast<std::size_t>(k);
+    // The four probes' cache misses overlap: all four slots are fetched before the first is read.
+    Cell nb[4];
+    std::uint64_t key[4];
     for (int axis = 0; axis < 4; ++axis) {
-      Cell nb = cells_[c];
-      nb[axis] += 1;
-      nb[3] = nb[3] % yaw_cells_;
-      neighbours_[4 * c + static_cast<std::size_t>(axis)] = cell_of(nb, false);
+      nb[axis] = cells_[c];
+      nb[axis][static_cast<std::size_t>(axis)] += 1;
+      nb[axis][3] = nb[axis][3] % yaw_cells_;
+      key[axis] = cell_key(nb[axis]);
+      __builtin_prefetch(&table_[static_cast<std::size_t>(key[axis]) & (table_.size() - 1)]);
+    }
+    for (int axis = 0; axis < 4; ++axis) {
+      neighbours_[4 * c + static_cast<std::size_t>(axis)] = cell_of(nb[axis], key[axis], false);
     }
   }
   for (std::uint32_t c = 0; c < cells; ++c) {
@@ -257,45 +269,73 @@ bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) {
 
 std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
                                                 double total) const {
-  // Two passes over the particles for all k hypotheses at once (means, then covariances); each hypothesis's
-  // sums add its particles in index order.
+  // Two passes over the particles for all k hypotheses at once (means, then covariances), in parallel over
+  // fixed chunks of particles whose sums are added in chunk order: the result does not depend on the threads.
+  const std::size_t chunks = (n + kDescribeChunk - 1) / kDescribeChunk;
+  struct Moments {
+    double weight = 0.0;
+    std::size_t particles = 0;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    Eigen::Matrix4d rotation = Eigen::Matrix4d::Zero();  // sum w q q^T (Markley's mean)
+  };
+  std::vector<Moments> part(chunks * k);
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+  for (std::ptrdiff_t c = 0; c < static_cast<std::ptrdiff_t>(chunks); ++c) {
+    Moments* sums = &part[static_cast<std::size_t>(c) * k];
+    const std::size_t end = std::min(n, (static_cast<std::size_t>(c) + 1) * kDescribeChunk);
+    for (std::size_t i = static_cast<std::size_t>(c) * kDescribeChunk; i < end; ++i) {
+      const std::int32_t r = hypothesis_of(i);
+      if (r < 0) continue;
+      Moments& m = sums[static_cast<std::size_t>(r)];
+      const Eigen::Quaternionf q = p.rotation(i);
+      const Eigen::Vector4d v(q.w(), q.x(), q.y(), q.z());
+      m.rotation += w[i] * v * v.transpose();
+      m.position += w[i] * p.position(i).cast<double>();
+      m.weight += w[i];
+      ++m.particles;
+    }
+  }
   std::vector<Hypothesis> h(k);
-  std::vector<double> weight(k, 0.0);
-  std::vector<Eigen::Vector3d> position_sum(k, Eigen::Vector3d::Zero());
-  std::vector<Eigen::Matrix4d> m(k, Eigen::Matrix4d::Zero());
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::int32_t r = hypothesis_of(i);
-    if (r < 0) continue;
-    const auto rank = static_cast<std::size_t>(r);
-    const Eigen::Quaternionf q = p.rotation(i);
-    const Eigen::Vector4d v(q.w(), q.x(), q.y(), q.z());
-    m[rank] += w[i] * v * v.transpose();
-    position_sum[rank] += w[i] * p.position(i).cast<double>();
-    weight[rank] += w[i];
-    ++h[rank].particles;
+  std::vector<Moments> sum(k);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    for (std::size_t r = 0; r < k; ++r) {
+      const Moments& m = part[c * k + r];
+      sum[r].rotation += m.rotation;
+      sum[r].position += m.position;
+      sum[r].weight += m.weight;
+      sum[r].particles += m.particles;
+    }
   }
   std::vector<Eigen::Vector3d> mean_position(k);
   std::vector<Eigen::Quaterniond> inverse_mean(k);
   for (std::size_t r = 0; r < k; ++r) {
-    mean_position[r] = position_sum[r] / weight[r];
-    const Eigen::Quaterniond mean_rotation = markley_mean(m[r]);
+    h[r].particles = sum[r].particles;
+    mean_position[r] = sum[r].position / sum[r].weight;
+    const Eigen::Quaterniond mean_rotation = markley_mean(sum[r].rotation);
     inverse_mean[r] = mean_rotation.conjugate();
     h[r].pose.linear() = mean_rotation.toRotationMatrix();
     h[r].pose.translation() = mean_position[r];
   }
-  std::vector<Matrix6d> cov(k, Matrix6d::Zero());
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::int32_t r = hypothesis_of(i);
-    if (r < 0) continue;
-    const auto rank = static_cast<std::size_t>(r);
-    Eigen::Matrix<double, 6, 1> d;
-    d.head<3>() = p.position(i).cast<double>() - mean_position[rank];
-    d.tail<3>() = quaternion_log(inverse_mean[rank] * p.rotation(i).cast<double>());
-    cov[rank] += w[i] * d * d.transpose();
+  std::vector<Matrix6d> cov_part(chunks * k, Matrix6d::Zero());
+#pragma omp parallel for schedule(static) if (n >= kParallelParticles)
+  for (std::ptrdiff_t c = 0; c < static_cast<std::ptrdiff_t>(chunks); ++c) {
+    Matrix6d* cov = &cov_part[static_cast<std::size_t>(c) * k];
+    const std::size_t end = std::min(n, (static_cast<std::size_t>(c) + 1) * kDescribeChunk);
+    for (std::size_t i = static_cast<std::size_t>(c) * kDescribeChunk; i < end; ++i) {
+      const std::int32_t r = hypothesis_of(i);
+      if (r < 0) continue;
+      const auto rank = static_cast<std::size_t>(r);
+      Eigen::Matrix<double, 6, 1> d;
+      d.head<3>() = p.position(i).cast<double>() - mean_position[rank];
+      d.tail<3>() = quaternion_log(inverse_mean[rank] * p.rotation(i).cast<double>());
+      cov[rank] += w[i] * d * d.transpose();
+    }
   }
   for (std::size_t r = 0; r < k; ++r) {
-    h[r].covariance = cov[r] / weight[r];
-    h[r].weight = weight[r] / total;
+    Matrix6d cov = Matrix6d::Zero();
+    for (std::size_t c = 0; c < chunks; ++c) cov += cov_part[c * k + r];
+    h[r].covariance = cov / sum[r].weight;
+    h[r].weight = sum[r].weight / total;
     h[r].std_position = largest_std(h[r].covariance.topLeftCorner<3, 3>());
     h[r].std_rotation = largest_std(h[r].covariance.bottomRightCorner<3, 3>());
   }

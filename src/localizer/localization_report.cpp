@@ -60,6 +60,8 @@ nlohmann::json scan_json(const ScanRecord& r) {
                             {"weight_gpu", number_or_null(t.weight_gpu_ms)},
                             {"reduce_gpu", number_or_null(t.reduce_gpu_ms)},
                             {"reduce_host", t.reduce_ms},
+                            {"tempering", t.tempering_ms},
+                            {"hypotheses", t.hypotheses_ms},
                             {"resample", t.resample_ms},
                             {"update_total", t.total_ms}});
   } else {

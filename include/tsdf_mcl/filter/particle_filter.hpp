@@ -162,8 +162,10 @@ struct StepTimings {
   double weight_ms = 0.0;      // evaluator: weighting + reduction, host wall time
   double weight_gpu_ms = 0.0;  // GPU timestamps (NaN without)
   double reduce_gpu_ms = 0.0;
-  double reduce_ms = 0.0;    // host: tempering, normalization, recovery averages, pose estimate
-  double resample_ms = 0.0;  // KLD count, resampling, injection
+  double reduce_ms = 0.0;      // host: tempering, hypotheses, recovery averages, decision; of which
+  double tempering_ms = 0.0;   //   the adaptive tempering (tempering.hpp)
+  double hypotheses_ms = 0.0;  //   the pose estimate's modes, each refined onto the map, and their evidence
+  double resample_ms = 0.0;    // KLD count, resampling, injection
   double total_ms = 0.0;
 };
 

@@ -103,8 +103,9 @@ class PoseEstimator {
 
  private:
   std::uint32_t find(std::uint32_t a);
-  // The cell's number in the hash table; a new cell gets one where `insert`, else kNoCell.
-  std::uint32_t cell_of(const Cell& c, bool insert);
+  // The cell's number in the hash table (`key`: its hash, cell_key); a new cell gets one where `insert`, else
+  // kNoCell.
+  std::uint32_t cell_of(const Cell& c, std::uint64_t key, bool insert);
   // estimate()'s stages. The particles above `threshold` into cells of the (x, y, z, yaw, up axis) grid.
   void bin_particles(const ParticleArrays& p, const double* w, std::size_t n, double threshold);
   // Connected components of the cells over face neighbours (union-find, each rooted at its lowest cell).
@@ -115,14 +116,18 @@ class PoseEstimator {
   std::vector<Hypothesis> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
                                    double total) const;
   PoseEstimateOptions options_;
-  std::vector<std::uint64_t> keys_;  // hash table of cells, 0 = empty
-  std::vector<std::uint32_t> slot_cell_;
+  struct Slot {
+    std::uint64_t key = 0;  // the cell's hash, 0 = empty
+    std::uint32_t cell = 0;
+  };
+  std::vector<Slot> table_;                // open addressing; key and cell side by side: one cache line a probe
   std::vector<Cell> cells_;                // cell coordinates
   std::vector<std::uint32_t> parent_;      // union-find over cells
   std::vector<std::uint32_t> neighbours_;  // each cell's neighbour one step up x, y, z and yaw, or kNoCell
   std::vector<double> cell_weight_;
   std::vector<double> root_weight_;
-  std::vector<Cell> particle_cells_;  // each particle's cell coordinates (scratch)
+  std::vector<Cell> particle_cells_;          // each particle's cell coordinates (scratch)
+  std::vector<std::uint64_t> particle_keys_;  // and their hashes
   std::vector<std::uint32_t> particle_cell_;
   std::vector<std::int32_t> root_rank_;  // hypothesis index of each component root, -1 beyond max_hypotheses
   int yaw_cells_ = 12;
