@@ -173,16 +173,8 @@ py::dict evaluate(const py::handle& times, const py::handle& poses, const py::ha
   return metrics_dict(m, mo);
 }
 
-}  // namespace
-
-const Dataset* dataset_of(const py::handle& obj, std::vector<std::size_t>* scans) {
-  if (!py::isinstance<PyDataset>(obj)) return nullptr;
-  const PyDataset& d = obj.cast<const PyDataset&>();
-  if (scans) *scans = d.indices;
-  return d.dataset.get();
-}
-
-void register_dataset(py::module_& m) {
+// The Dataset class and its iterator: len, indexing, iteration, and the selected scans' arrays.
+void register_dataset_classes(py::module_& m) {
   py::class_<DatasetIterator>(m, "_DatasetIterator")
       .def("__iter__", [](DatasetIterator& it) -> DatasetIterator& { return it; })
       .def("__next__", [](DatasetIterator& it) {
@@ -218,6 +210,38 @@ void register_dataset(py::module_& m) {
           "IMU samples (M, 4): t, specific force x y z in the sensor frame (m/s^2)")
       .def_property_readonly("path", [](const PyDataset& d) { return d.dataset->dir().string(); })
       .def_property_readonly("summary", [](const PyDataset& d) { return d.dataset->summary(); });
+}
+
+// A ROS 1 bag as a dataset; the GIL is released while the bag is indexed.
+PyDataset read_bag(const std::string& path, const std::string& points_topic, const std::string& odom_frame,
+                   const std::string& base_frame, const std::string& odom_topic, const std::string& ground_truth_topic,
+                   const std::string& imu_topic, std::size_t start, std::size_t stride, std::size_t count) {
+  BagOptions o;
+  o.points_topic = points_topic;
+  o.odom_frame = odom_frame;
+  o.base_frame = base_frame;
+  o.odom_topic = odom_topic;
+  o.ground_truth_topic = ground_truth_topic;
+  o.imu_topic = imu_topic;
+  std::shared_ptr<const Dataset> dataset;
+  {
+    py::gil_scoped_release release;
+    dataset = std::make_shared<const Dataset>(Dataset::open_bag(path, o));
+  }
+  return select(std::move(dataset), start, stride, count);
+}
+
+}  // namespace
+
+const Dataset* dataset_of(const py::handle& obj, std::vector<std::size_t>* scans) {
+  if (!py::isinstance<PyDataset>(obj)) return nullptr;
+  const PyDataset& d = obj.cast<const PyDataset&>();
+  if (scans) *scans = d.indices;
+  return d.dataset.get();
+}
+
+void register_dataset(py::module_& m) {
+  register_dataset_classes(m);
 
   m.def(
       "read_dataset",
@@ -229,30 +253,11 @@ void register_dataset(py::module_& m) {
       "A dataset folder (scans/, times.txt, optional poses.txt, odom.txt, imu.txt); start/stride/count as in "
       "tsdf-mcl localize (count 0 = all).");
 
-  m.def(
-      "read_bag",
-      [](const std::string& path, const std::string& points_topic, const std::string& odom_frame,
-         const std::string& base_frame, const std::string& odom_topic, const std::string& ground_truth_topic,
-         const std::string& imu_topic, std::size_t start, std::size_t stride, std::size_t count) {
-        BagOptions o;
-        o.points_topic = points_topic;
-        o.odom_frame = odom_frame;
-        o.base_frame = base_frame;
-        o.odom_topic = odom_topic;
-        o.ground_truth_topic = ground_truth_topic;
-        o.imu_topic = imu_topic;
-        std::shared_ptr<const Dataset> dataset;
-        {
-          py::gil_scoped_release release;
-          dataset = std::make_shared<const Dataset>(Dataset::open_bag(path, o));
-        }
-        return select(std::move(dataset), start, stride, count);
-      },
-      py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = "odom", py::arg("base_frame") = "base_link",
-      py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "", py::arg("imu_topic") = "", py::arg("start") = 0,
-      py::arg("stride") = 1, py::arg("count") = 0,
-      "A ROS 1 bag as a dataset (docs/bags.md): the PointCloud2 scans of points_topic, odometry from tf or "
-      "odom_topic, ground truth and IMU from their topics.");
+  m.def("read_bag", &read_bag, py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = "odom",
+        py::arg("base_frame") = "base_link", py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "",
+        py::arg("imu_topic") = "", py::arg("start") = 0, py::arg("stride") = 1, py::arg("count") = 0,
+        "A ROS 1 bag as a dataset (docs/bags.md): the PointCloud2 scans of points_topic, odometry from tf or "
+        "odom_topic, ground truth and IMU from their topics.");
   m.attr("bag_support") = Dataset::bag_support();
 
   m.def("evaluate", &evaluate, py::arg("times"), py::arg("poses"), py::arg("ground_truth"),

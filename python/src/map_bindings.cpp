@@ -120,6 +120,64 @@ MapPtr from_scan_arrays(const py::sequence& scans, const py::handle& poses, cons
 // Defined in dataset_bindings.cpp: the Dataset behind a Python Dataset object (nullptr for another object).
 const Dataset* dataset_of(const py::handle& obj, std::vector<std::size_t>* scans);
 
+namespace {
+
+// The builders, as tsdf-mcl build-map --mesh, --cloud and --dataset; each releases the GIL while it builds.
+MapPtr map_from_mesh(const std::string& path, float voxel_size, float truncation, float margin, bool fill_free_space,
+                     double max_memory_mib) {
+  check_geometry(voxel_size, truncation);
+  MeshMapOptions o;
+  o.voxel_size = voxel_size;
+  o.truncation = truncation;
+  o.margin = margin;
+  o.fill_free_space = fill_free_space;
+  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  py::gil_scoped_release release;
+  return std::make_shared<TsdfMap>(build_map_from_mesh(load_mesh(path), o));
+}
+
+MapPtr map_from_cloud(const py::handle& points, float voxel_size, float truncation, float margin,
+                      const py::object& trajectory, float max_range, bool fill_free_space, double max_memory_mib) {
+  check_geometry(voxel_size, truncation);
+  CloudMapOptions o;
+  o.voxel_size = voxel_size;
+  o.truncation = truncation;
+  o.margin = margin;
+  o.max_range = max_range;
+  o.fill_free_space = fill_free_space;
+  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  if (!trajectory.is_none()) o.trajectory = positions_from(trajectory, "trajectory");
+  const std::vector<Eigen::Vector3f> p = points_from(points, "points");
+  py::gil_scoped_release release;
+  return std::make_shared<TsdfMap>(build_map_from_cloud(p, o));
+}
+
+MapPtr map_from_scans(const py::object& scans, const py::object& poses, float voxel_size, float truncation,
+                      float min_range, float max_range, float margin, double max_memory_mib) {
+  check_geometry(voxel_size, truncation);
+  ScanMapOptions o;
+  o.voxel_size = voxel_size;
+  o.truncation = truncation;
+  o.min_range = min_range;
+  o.max_range = max_range;
+  o.margin = margin;
+  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  std::vector<std::size_t> selected;
+  if (const Dataset* dataset = dataset_of(scans, &selected)) {
+    if (!poses.is_none()) throw BadArgument("poses: a Dataset brings its own (poses.txt)");
+    if (!dataset->has_poses()) throw Error(dataset->missing_poses());
+    py::gil_scoped_release release;
+    return std::make_shared<TsdfMap>(build_map_from_scans(*dataset, selected, o));
+  }
+  if (!py::isinstance<py::sequence>(scans) || py::isinstance<py::array>(scans)) {
+    throw BadArgument("scans must be a Dataset or a list of float32 (N, 3) arrays");
+  }
+  if (poses.is_none()) throw BadArgument("poses (world_T_sensor, shape (N, 4, 4)) is required with scan arrays");
+  return from_scan_arrays(py::reinterpret_borrow<py::sequence>(scans), poses, o);
+}
+
+}  // namespace
+
 void register_map(py::module_& m) {
   py::class_<TsdfMap, MapPtr>(m, "Map", "A TSDF map (the .tsdf file of tsdf-mcl build-map)")
       .def_static(
@@ -151,79 +209,22 @@ void register_map(py::module_& m) {
         return std::string(buf);
       });
 
-  m.def(
-      "build_map_from_mesh",
-      [](const std::string& path, float voxel_size, float truncation, float margin, bool fill_free_space,
-         double max_memory_mib) {
-        check_geometry(voxel_size, truncation);
-        MeshMapOptions o;
-        o.voxel_size = voxel_size;
-        o.truncation = truncation;
-        o.margin = margin;
-        o.fill_free_space = fill_free_space;
-        o.max_memory_bytes = memory_bytes(max_memory_mib);
-        py::gil_scoped_release release;
-        return std::make_shared<TsdfMap>(build_map_from_mesh(load_mesh(path), o));
-      },
-      py::arg("path"), py::arg("voxel_size") = kDefaultVoxelSize, py::arg("truncation") = kDefaultTruncation,
-      py::arg("margin") = 1.0f, py::arg("fill_free_space") = true,
-      py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
-      "A map from a triangle mesh file (STL, PLY, OBJ), as tsdf-mcl build-map --mesh.");
-
-  m.def(
-      "build_map_from_cloud",
-      [](const py::handle& points, float voxel_size, float truncation, float margin, const py::object& trajectory,
-         float max_range, bool fill_free_space, double max_memory_mib) {
-        check_geometry(voxel_size, truncation);
-        CloudMapOptions o;
-        o.voxel_size = voxel_size;
-        o.truncation = truncation;
-        o.margin = margin;
-        o.max_range = max_range;
-        o.fill_free_space = fill_free_space;
-        o.max_memory_bytes = memory_bytes(max_memory_mib);
-        if (!trajectory.is_none()) o.trajectory = positions_from(trajectory, "trajectory");
-        const std::vector<Eigen::Vector3f> p = points_from(points, "points");
-        py::gil_scoped_release release;
-        return std::make_shared<TsdfMap>(build_map_from_cloud(p, o));
-      },
-      py::arg("points"), py::arg("voxel_size") = kDefaultVoxelSize, py::arg("truncation") = kDefaultTruncation,
-      py::arg("margin") = 1.0f, py::arg("trajectory") = py::none(), py::arg("max_range") = 60.0f,
-      py::arg("fill_free_space") = true,
-      py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
-      "A map from a world-frame float32 (N, 3) point cloud, as tsdf-mcl build-map --cloud; trajectory: the mapping "
-      "run's sensor positions (M, 3), if known.");
-
-  m.def(
-      "build_map_from_scans",
-      [](const py::object& scans, const py::object& poses, float voxel_size, float truncation, float min_range,
-         float max_range, float margin, double max_memory_mib) {
-        check_geometry(voxel_size, truncation);
-        ScanMapOptions o;
-        o.voxel_size = voxel_size;
-        o.truncation = truncation;
-        o.min_range = min_range;
-        o.max_range = max_range;
-        o.margin = margin;
-        o.max_memory_bytes = memory_bytes(max_memory_mib);
-        std::vector<std::size_t> selected;
-        if (const Dataset* dataset = dataset_of(scans, &selected)) {
-          if (!poses.is_none()) throw BadArgument("poses: a Dataset brings its own (poses.txt)");
-          if (!dataset->has_poses()) throw Error(dataset->missing_poses());
-          py::gil_scoped_release release;
-          return std::make_shared<TsdfMap>(build_map_from_scans(*dataset, selected, o));
-        }
-        if (!py::isinstance<py::sequence>(scans) || py::isinstance<py::array>(scans)) {
-          throw BadArgument("scans must be a Dataset or a list of float32 (N, 3) arrays");
-        }
-        if (poses.is_none()) throw BadArgument("poses (world_T_sensor, shape (N, 4, 4)) is required with scan arrays");
-        return from_scan_arrays(py::reinterpret_borrow<py::sequence>(scans), poses, o);
-      },
-      py::arg("scans"), py::arg("poses") = py::none(), py::arg("voxel_size") = kDefaultVoxelSize,
-      py::arg("truncation") = kDefaultTruncation, py::arg("min_range") = 0.3f, py::arg("max_range") = 60.0f,
-      py::arg("margin") = 1.0f, py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
-      "A map by TSDF integration of registered scans, as tsdf-mcl build-map --dataset: a Dataset (its poses.txt), "
-      "or a list of sensor-frame float32 (N, 3) arrays with their poses, shape (N, 4, 4) world_T_sensor.");
+  m.def("build_map_from_mesh", &map_from_mesh, py::arg("path"), py::arg("voxel_size") = kDefaultVoxelSize,
+        py::arg("truncation") = kDefaultTruncation, py::arg("margin") = 1.0f, py::arg("fill_free_space") = true,
+        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+        "A map from a triangle mesh file (STL, PLY, OBJ), as tsdf-mcl build-map --mesh.");
+  m.def("build_map_from_cloud", &map_from_cloud, py::arg("points"), py::arg("voxel_size") = kDefaultVoxelSize,
+        py::arg("truncation") = kDefaultTruncation, py::arg("margin") = 1.0f, py::arg("trajectory") = py::none(),
+        py::arg("max_range") = 60.0f, py::arg("fill_free_space") = true,
+        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+        "A map from a world-frame float32 (N, 3) point cloud, as tsdf-mcl build-map --cloud; trajectory: the mapping "
+        "run's sensor positions (M, 3), if known.");
+  m.def("build_map_from_scans", &map_from_scans, py::arg("scans"), py::arg("poses") = py::none(),
+        py::arg("voxel_size") = kDefaultVoxelSize, py::arg("truncation") = kDefaultTruncation,
+        py::arg("min_range") = 0.3f, py::arg("max_range") = 60.0f, py::arg("margin") = 1.0f,
+        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+        "A map by TSDF integration of registered scans, as tsdf-mcl build-map --dataset: a Dataset (its poses.txt), "
+        "or a list of sensor-frame float32 (N, 3) arrays with their poses, shape (N, 4, 4) world_T_sensor.");
 }
 
 }  // namespace tsdf_mcl::python

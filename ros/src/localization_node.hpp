@@ -24,6 +24,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -44,6 +45,12 @@
 #include "tsdf_mcl/map/tsdf_map.hpp"
 
 namespace tsdf_mcl::ros_node {
+
+// The heading of a pose's x axis in the world's x-y plane (rad), for logs and /diagnostics.
+inline double yaw_of(const Pose& p) {
+  const Eigen::Vector3d x = p.rotation().col(0);
+  return std::atan2(x.y(), x.x());
+}
 
 struct NodeSettings {
   std::string map_file;

@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -197,49 +198,52 @@ void print(const char* what, const Outcome& o) {
       o.median_update_ms, o.scan_period_ms);
 }
 
-TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
-  const fs::path dir = fs::temp_directory_path() / ("tsdf_mcl_ros_test_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir / "ros");
+// The office and its two runs: a map from the mapping run, a separate 25 m test route written as a bag.
+void simulate_office(const fs::path& dir) {
   const fs::path log = dir / "cli.log";
-  // The built-in office: a map from the mapping run, a separate 25 m test route written as a bag.
   run_cli("simulate --scene office --lidar vlp16 --route mapping --seed 1 -o '" + (dir / "mapping").string() + "'",
           log);
   run_cli("build-map --dataset '" + (dir / "mapping").string() + "' -o '" + (dir / "office.tsdf").string() + "'", log);
   run_cli("simulate --scene office --lidar vlp16 --route test --seed 3 --length 25 --bag '" +
               (dir / "test.bag").string() + "' -o '" + (dir / "test").string() + "'",
           log);
-  if (HasFatalFailure()) return;
+}
 
-  Master rosmaster(dir);
-  ASSERT_TRUE(rosmaster.up()) << "rosmaster did not start; see " << dir / "rosmaster.log";
-  ros::param::set("/use_sim_time", true);
-  ros::start();
-  ros::NodeHandle nh;
-  Recorder recorder(nh);
-  tf2_ros::Buffer tf_buffer(ros::Duration(60.0));
-  tf2_ros::TransformListener tf_listener(tf_buffer, nh);
-  ros::Publisher initial_pose = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("/initialpose", 1, true);
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
+// The node on the office map, what the test listens with, and the three plays of the bag the test makes. A step's
+// ASSERT ends the step; the test then ends too (it checks HasFatalFailure after each step).
+class BagSession {
+ public:
+  explicit BagSession(const fs::path& dir)
+      : dir_(dir),
+        recorder_(nh_),
+        tf_buffer_(ros::Duration(60.0)),
+        tf_listener_(tf_buffer_, nh_),
+        initial_pose_(nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("/initialpose", 1, true)),
+        spinner_(2),
+        // --wait-for-subscribers: no message goes out before the node (and the recorder) connected to its topic;
+        // the bag's /tf_static is latched (the writer marks it so), so a late connection still gets the extrinsic.
+        play_({"rosbag", "play", "--clock", "-q", "--wait-for-subscribers", (dir / "test.bag").string()}) {
+    spinner_.start();
+    node_.emplace(
+        std::vector<std::string>{TSDF_MCL_NODE, "__name:=tsdf_mcl", "_map_file:=" + (dir / "office.tsdf").string(),
+                                 "_point_topics:=/points", "_seed:=1"},
+        dir / "node.log");
+  }
 
-  Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", "_map_file:=" + (dir / "office.tsdf").string(),
-              "_point_topics:=/points", "_seed:=1"},
-             dir / "node.log");
-  ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
-      << "the node did not come up; see " << dir / "node.log";
-  // --wait-for-subscribers: no message goes out before the node (and the recorder) connected to its topic; the
-  // bag's /tf_static is latched (the writer marks it so), so a late connection still gets the extrinsic.
-  const std::vector<std::string> play = {
-      "rosbag", "play", "--clock", "-q", "--wait-for-subscribers", (dir / "test.bag").string()};
+  Child& node() { return *node_; }
+
+  void wait_until_up() {
+    ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
+        << "the node did not come up; see " << dir_ / "node.log";
+  }
 
   // 1. Global localization from nothing, as `localize --init global` does on the same bag.
-  {
-    Child player(play, dir / "play1.log");
-    ASSERT_EQ(player.wait_for(180s), 0) << "rosbag play failed; see " << dir / "play1.log";
-    ASSERT_TRUE(recorder.wait_for_last_scan(60s)) << "no status for the last scan; see " << dir / "node.log";
-    ASSERT_TRUE(node.running()) << "the node died; see " << dir / "node.log";
-    const std::vector<std::pair<Scan, Pose>> scans = recorder.take();
+  void localize_globally() {
+    Child player(play_, dir_ / "play1.log");
+    ASSERT_EQ(player.wait_for(180s), 0) << "rosbag play failed; see " << dir_ / "play1.log";
+    ASSERT_TRUE(recorder_.wait_for_last_scan(60s)) << "no status for the last scan; see " << dir_ / "node.log";
+    ASSERT_TRUE(node_->running()) << "the node died; see " << dir_ / "node.log";
+    const std::vector<std::pair<Scan, Pose>> scans = recorder_.take();
     const Outcome o = summarize(scans);
     print("node, global", o);
     ASSERT_GT(o.scans, 20u);
@@ -256,7 +260,7 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
       if (scan.state != "converged") continue;
       try {
         const Pose map_T_base =
-            pose_from_msg(tf_buffer.lookupTransform("map", "base_link", scan.stamp, ros::Duration(0.5)).transform);
+            pose_from_msg(tf_buffer_.lookupTransform("map", "base_link", scan.stamp, ros::Duration(0.5)).transform);
         EXPECT_LT((map_T_base.translation() - truth.translation()).norm(), 0.2) << "at " << scan.stamp;
         EXPECT_LT(angle_deg(map_T_base, truth), 3.0) << "at " << scan.stamp;
         ++checked;
@@ -269,14 +273,14 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
 
   // 2. global_localization: the node forgets its pose, searches again and finds it again. (Playing the bag again
   // also sends time back, which restarts the filter with a global search by itself.)
-  {
+  void relocalize_on_request() {
     std_srvs::Empty call;
     ASSERT_TRUE(ros::service::call("/global_localization", call));
-    recorder.clear_truth();
-    Child player(play, dir / "play2.log");
+    recorder_.clear_truth();
+    Child player(play_, dir_ / "play2.log");
     ASSERT_EQ(player.wait_for(180s), 0);
-    ASSERT_TRUE(recorder.wait_for_last_scan(60s));
-    const Outcome o = summarize(recorder.take());
+    ASSERT_TRUE(recorder_.wait_for_last_scan(60s));
+    const Outcome o = summarize(recorder_.take());
     print("node, after global_localization", o);
     ASSERT_GT(o.scans, 20u);
     EXPECT_NE(o.first_state, "converged") << "the first scan after global_localization claims convergence";
@@ -286,8 +290,8 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
 
   // 3. /initialpose as RViz's "2D Pose Estimate" sends it: x, y, yaw near the start, z, roll, pitch 0. The node
   // takes z, roll and pitch from the map and the scan, and tracks from there.
-  {
-    const auto start = recorder.first_truth();
+  void track_from_initial_pose() {
+    const auto start = recorder_.first_truth();
     ASSERT_TRUE(start);
     const Pose truth = start->second;
     const double yaw = std::atan2(truth.rotation()(1, 0), truth.rotation()(0, 0)) + 0.08;
@@ -297,16 +301,16 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     msg.pose.pose.position.y = truth.translation().y() - 0.2;
     msg.pose.pose.orientation.z = std::sin(yaw / 2);
     msg.pose.pose.orientation.w = std::cos(yaw / 2);
-    ASSERT_TRUE(wait_until([&] { return initial_pose.getNumSubscribers() > 0; }, 60s));
-    initial_pose.publish(msg);
+    ASSERT_TRUE(wait_until([&] { return initial_pose_.getNumSubscribers() > 0; }, 60s));
+    initial_pose_.publish(msg);
     // The node logs when it has the pose; only then may the bag start.
-    ASSERT_TRUE(recorder.wait_for_log("/initialpose received", 60s)) << "see " << dir / "node.log";
-    recorder.clear_truth();
+    ASSERT_TRUE(recorder_.wait_for_log("/initialpose received", 60s)) << "see " << dir_ / "node.log";
+    recorder_.clear_truth();
     // The whole bag: on a loaded machine the first updates after the reset take seconds each.
-    Child player(play, dir / "play3.log");
+    Child player(play_, dir_ / "play3.log");
     ASSERT_EQ(player.wait_for(180s), 0);
-    ASSERT_TRUE(recorder.wait_for_last_scan(60s));
-    const Outcome o = summarize(recorder.take());
+    ASSERT_TRUE(recorder_.wait_for_last_scan(60s));
+    const Outcome o = summarize(recorder_.take());
     print("node, after /initialpose", o);
     ASSERT_GT(o.scans, 5u);
     // The first estimate sits where the operator put it, at the height the map gives.
@@ -320,7 +324,40 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
     EXPECT_LT(o.converged_after_scans, 60u);
     EXPECT_EQ(o.false_claims, 0u);
   }
-  node.stop();
+
+ private:
+  fs::path dir_;
+  ros::NodeHandle nh_;
+  Recorder recorder_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Publisher initial_pose_;
+  ros::AsyncSpinner spinner_;
+  std::optional<Child> node_;  // started once the spinner runs
+  std::vector<std::string> play_;
+};
+
+TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
+  const fs::path dir = fs::temp_directory_path() / ("tsdf_mcl_ros_test_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "ros");
+  simulate_office(dir);
+  if (HasFatalFailure()) return;
+
+  Master rosmaster(dir);
+  ASSERT_TRUE(rosmaster.up()) << "rosmaster did not start; see " << dir / "rosmaster.log";
+  ros::param::set("/use_sim_time", true);
+  ros::start();
+  BagSession session(dir);
+  session.wait_until_up();
+  if (HasFatalFailure()) return;
+  session.localize_globally();
+  if (HasFatalFailure()) return;
+  session.relocalize_on_request();
+  if (HasFatalFailure()) return;
+  session.track_from_initial_pose();
+  if (HasFatalFailure()) return;
+  session.node().stop();
   rosmaster.stop();
   if (!HasFailure()) fs::remove_all(dir);
 }

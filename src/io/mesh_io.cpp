@@ -281,6 +281,111 @@ class PlyValues {
   Tokens tokens_;
 };
 
+// Where a PLY mesh's values are: the vertex and face elements, the x, y, z properties, the faces' index list.
+struct PlyMeshLayout {
+  const PlyElement* vertex = nullptr;
+  const PlyElement* face = nullptr;
+  int xyz[3] = {-1, -1, -1};
+  int indices_property = -1;
+};
+
+PlyMeshLayout ply_mesh_layout(const std::vector<PlyElement>& elements, const fs::path& file) {
+  PlyMeshLayout l;
+  for (const PlyElement& e : elements) {
+    if (e.name == "vertex") l.vertex = &e;
+    if (e.name == "face") l.face = &e;
+  }
+  if (!l.vertex) throw Error(file.string() + ": PLY has no vertex element");
+  if (!l.face) throw Error(file.string() + ": PLY has no face element (a point cloud, not a mesh)");
+  for (std::size_t k = 0; k < l.vertex->properties.size(); ++k) {
+    const PlyProperty& p = l.vertex->properties[k];
+    for (int a = 0; a < 3; ++a) {
+      if (p.name == std::string(1, static_cast<char>('x' + a)) && !p.is_list) l.xyz[a] = static_cast<int>(k);
+    }
+  }
+  if (l.xyz[0] < 0 || l.xyz[1] < 0 || l.xyz[2] < 0) throw Error(file.string() + ": PLY vertices lack x, y or z");
+  for (std::size_t k = 0; k < l.face->properties.size(); ++k) {
+    const PlyProperty& p = l.face->properties[k];
+    if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")) l.indices_property = static_cast<int>(k);
+  }
+  if (l.indices_property < 0) throw Error(file.string() + ": PLY faces have no vertex_indices list");
+  return l;
+}
+
+// Every row takes at least a byte per value in binary files and two (a digit and a separator) in ascii ones:
+// counts the rest of the file cannot hold are corrupt, and must not size memory or loops.
+void check_ply_body_size(const PlyHeader& header, std::size_t body_bytes, const fs::path& file) {
+  std::uint64_t min_bytes = 0;
+  const std::uint64_t per_value = header.format == PlyFormat::kAscii ? 2 : 1;
+  for (const PlyElement& e : header.elements) {
+    std::uint64_t row = 0;
+    for (const PlyProperty& p : e.properties)
+      row += per_value * (header.format == PlyFormat::kAscii ? 1 : ply_size(p.is_list ? p.count_type : p.type));
+    if (row == 0 && e.count > 0) throw Error(file.string() + ": PLY element " + e.name + " has rows but no properties");
+    min_bytes += row * e.count;  // at most 2^28 rows of at most 4 * 256 bytes: no overflow
+  }
+  if (min_bytes > body_bytes + 1) {
+    throw Error(file.string() + ": PLY header announces at least " + std::to_string(min_bytes) +
+                " bytes of elements, the file has " + std::to_string(body_bytes) +
+                " after the header (truncated or corrupt)");
+  }
+}
+
+// One list property of a row; a face's index list becomes triangles (a fan), any other list is skipped.
+void read_ply_list(PlyValues& values, const PlyElement& e, std::size_t row, const PlyProperty& p, bool keep,
+                   std::vector<long long>& polygon, TriangleMesh& mesh, const fs::path& file) {
+  const double n = values.next(p.count_type, e, row);
+  if (!(n >= 0) || n != std::floor(n) || n > 1e6)
+    throw Error(file.string() + ": bad PLY list length in " + PlyValues::where(e, row));
+  if (keep) polygon.clear();
+  for (long long i = 0; i < static_cast<long long>(n); ++i) {
+    const double v = values.next(p.type, e, row);
+    if (!keep) continue;
+    if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
+      throw Error(file.string() + ": PLY vertex index " + std::to_string(v) + " is not valid in " +
+                  PlyValues::where(e, row));
+    }
+    polygon.push_back(static_cast<long long>(v));
+  }
+  if (!keep) return;
+  if (polygon.size() < 3)
+    throw Error(file.string() + ": PLY face with fewer than 3 vertices in " + PlyValues::where(e, row));
+  for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
+    mesh.triangles.emplace_back(static_cast<int>(polygon[0]), static_cast<int>(polygon[i]),
+                                static_cast<int>(polygon[i + 1]));
+  }
+}
+
+// Every element's rows in file order: the vertices' x, y, z and the faces' index lists kept, the rest read past.
+void read_ply_elements(PlyValues& values, const std::vector<PlyElement>& elements, const PlyMeshLayout& l,
+                       TriangleMesh& mesh, const fs::path& file) {
+  std::vector<long long> polygon;
+  for (const PlyElement& e : elements) {
+    const bool is_vertex = &e == l.vertex;
+    const bool is_face = &e == l.face;
+    for (std::size_t row = 0; row < e.count; ++row) {
+      double coord[3] = {0, 0, 0};
+      for (std::size_t k = 0; k < e.properties.size(); ++k) {
+        const PlyProperty& p = e.properties[k];
+        if (p.is_list) {
+          read_ply_list(values, e, row, p, is_face && static_cast<int>(k) == l.indices_property, polygon, mesh, file);
+          continue;
+        }
+        const double v = values.next(p.type, e, row);
+        for (int a = 0; a < 3; ++a) {
+          if (is_vertex && l.xyz[a] == static_cast<int>(k)) coord[a] = v;
+        }
+      }
+      if (is_vertex) {
+        const Eigen::Vector3f v(static_cast<float>(coord[0]), static_cast<float>(coord[1]),
+                                static_cast<float>(coord[2]));
+        check_finite(v, file, "vertex " + std::to_string(row));
+        mesh.vertices.push_back(v);
+      }
+    }
+  }
+}
+
 TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
   std::size_t pos = 0;
   const PlyHeader header = io::parse_ply_header(
@@ -293,96 +398,13 @@ TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
         return true;
       },
       file.string(), limits::kMaxMeshElements);
-  const std::vector<PlyElement>& elements = header.elements;
-  const PlyFormat format = header.format;
-  const PlyElement* vertex_element = nullptr;
-  const PlyElement* face_element = nullptr;
-  for (const PlyElement& e : elements) {
-    if (e.name == "vertex") vertex_element = &e;
-    if (e.name == "face") face_element = &e;
-  }
-  if (!vertex_element) throw Error(file.string() + ": PLY has no vertex element");
-  if (!face_element) throw Error(file.string() + ": PLY has no face element (a point cloud, not a mesh)");
-  int xyz[3] = {-1, -1, -1};
-  for (std::size_t k = 0; k < vertex_element->properties.size(); ++k) {
-    const PlyProperty& p = vertex_element->properties[k];
-    for (int a = 0; a < 3; ++a) {
-      if (p.name == std::string(1, static_cast<char>('x' + a)) && !p.is_list) xyz[a] = static_cast<int>(k);
-    }
-  }
-  if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) throw Error(file.string() + ": PLY vertices lack x, y or z");
-  int indices_property = -1;
-  for (std::size_t k = 0; k < face_element->properties.size(); ++k) {
-    const PlyProperty& p = face_element->properties[k];
-    if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")) indices_property = static_cast<int>(k);
-  }
-  if (indices_property < 0) throw Error(file.string() + ": PLY faces have no vertex_indices list");
-
-  // Every row takes at least a byte per value in binary files and two (a digit and a separator) in ascii ones:
-  // counts the rest of the file cannot hold are corrupt, and must not size memory or loops.
-  std::uint64_t min_bytes = 0;
-  const std::uint64_t per_value = format == PlyFormat::kAscii ? 2 : 1;
-  for (const PlyElement& e : elements) {
-    std::uint64_t row = 0;
-    for (const PlyProperty& p : e.properties)
-      row += per_value * (format == PlyFormat::kAscii ? 1 : ply_size(p.is_list ? p.count_type : p.type));
-    if (row == 0 && e.count > 0) throw Error(file.string() + ": PLY element " + e.name + " has rows but no properties");
-    min_bytes += row * e.count;  // at most 2^28 rows of at most 4 * 256 bytes: no overflow
-  }
-  if (min_bytes > data.size() - pos + 1) {
-    throw Error(file.string() + ": PLY header announces at least " + std::to_string(min_bytes) +
-                " bytes of elements, the file has " + std::to_string(data.size() - pos) +
-                " after the header (truncated or corrupt)");
-  }
+  const PlyMeshLayout layout = ply_mesh_layout(header.elements, file);
+  check_ply_body_size(header, data.size() - pos, file);
   TriangleMesh mesh;
-  mesh.vertices.reserve(vertex_element->count);
-  mesh.triangles.reserve(face_element->count);
-  PlyValues values(data, pos, format, file);
-  std::vector<long long> polygon;
-  for (const PlyElement& e : elements) {
-    const bool is_vertex = &e == vertex_element;
-    const bool is_face = &e == face_element;
-    for (std::size_t row = 0; row < e.count; ++row) {
-      double coord[3] = {0, 0, 0};
-      for (std::size_t k = 0; k < e.properties.size(); ++k) {
-        const PlyProperty& p = e.properties[k];
-        if (!p.is_list) {
-          const double v = values.next(p.type, e, row);
-          for (int a = 0; a < 3; ++a) {
-            if (is_vertex && xyz[a] == static_cast<int>(k)) coord[a] = v;
-          }
-          continue;
-        }
-        const double n = values.next(p.count_type, e, row);
-        if (!(n >= 0) || n != std::floor(n) || n > 1e6)
-          throw Error(file.string() + ": bad PLY list length in " + PlyValues::where(e, row));
-        const bool keep = is_face && static_cast<int>(k) == indices_property;
-        if (keep) polygon.clear();
-        for (long long i = 0; i < static_cast<long long>(n); ++i) {
-          const double v = values.next(p.type, e, row);
-          if (!keep) continue;
-          if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
-            throw Error(file.string() + ": PLY vertex index " + std::to_string(v) + " is not valid in " +
-                        PlyValues::where(e, row));
-          }
-          polygon.push_back(static_cast<long long>(v));
-        }
-        if (!keep) continue;
-        if (polygon.size() < 3)
-          throw Error(file.string() + ": PLY face with fewer than 3 vertices in " + PlyValues::where(e, row));
-        for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
-          mesh.triangles.emplace_back(static_cast<int>(polygon[0]), static_cast<int>(polygon[i]),
-                                      static_cast<int>(polygon[i + 1]));
-        }
-      }
-      if (is_vertex) {
-        const Eigen::Vector3f v(static_cast<float>(coord[0]), static_cast<float>(coord[1]),
-                                static_cast<float>(coord[2]));
-        check_finite(v, file, "vertex " + std::to_string(row));
-        mesh.vertices.push_back(v);
-      }
-    }
-  }
+  mesh.vertices.reserve(layout.vertex->count);
+  mesh.triangles.reserve(layout.face->count);
+  PlyValues values(data, pos, header.format, file);
+  read_ply_elements(values, header.elements, layout, mesh, file);
   const auto n = static_cast<int>(mesh.vertices.size());
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     if ((mesh.triangles[t].array() >= n).any()) {
@@ -392,8 +414,6 @@ TriangleMesh parse_ply(const std::string& data, const fs::path& file) {
   }
   return mesh;
 }
-
-// ---------------------------------------------------------------------------------------------------- OBJ
 
 TriangleMesh parse_obj(const std::string& data, const fs::path& file) {
   TriangleMesh mesh;

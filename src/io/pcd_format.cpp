@@ -19,58 +19,48 @@ std::uint64_t pcd_count(const std::string& token, std::uint64_t max, const std::
   return value;
 }
 
-}  // namespace
-
-PcdHeader parse_pcd_header(const std::function<bool(std::string&)>& next_line, const std::string& name,
-                           std::uint64_t max_points) {
-  PcdHeader h;
-  bool have_points = false;
-  constexpr std::uint64_t kMaxFields = 256, kMaxCount = 4096;
-  for (std::string line; h.data.empty() && next_line(line);) {
-    std::istringstream ss(line);
-    std::string key;
-    ss >> key;
-    std::vector<std::string> values;
-    for (std::string v; ss >> v;) {
-      values.push_back(v);
-      if (values.size() > kMaxFields)
-        throw Error(name + ": PCD " + key + " has more than " + std::to_string(kMaxFields) + " values");
+// One header line's values by its key; unknown keys (VERSION, VIEWPOINT) are skipped.
+void read_pcd_header_line(PcdHeader& h, const std::string& key, const std::vector<std::string>& values,
+                          const std::string& name, std::uint64_t max_points, bool& have_points) {
+  constexpr std::uint64_t kMaxCount = 4096;
+  if (key == "FIELDS") {
+    h.fields = values;
+  } else if (key == "SIZE") {
+    h.sizes.clear();
+    for (const auto& v : values) {
+      h.sizes.push_back(pcd_count(v, 8, name, "SIZE"));
+      if (h.sizes.back() != 1 && h.sizes.back() != 2 && h.sizes.back() != 4 && h.sizes.back() != 8) {
+        throw Error(name + ": PCD SIZE " + v + " (must be 1, 2, 4 or 8 bytes)");
+      }
     }
-    if (key == "FIELDS") {
-      h.fields = values;
-    } else if (key == "SIZE") {
-      h.sizes.clear();
-      for (const auto& v : values) {
-        h.sizes.push_back(pcd_count(v, 8, name, "SIZE"));
-        if (h.sizes.back() != 1 && h.sizes.back() != 2 && h.sizes.back() != 4 && h.sizes.back() != 8) {
-          throw Error(name + ": PCD SIZE " + v + " (must be 1, 2, 4 or 8 bytes)");
-        }
-      }
-    } else if (key == "TYPE") {
-      h.types.clear();
-      for (const auto& v : values) {
-        if (v != "F" && v != "I" && v != "U") throw Error(name + ": PCD TYPE '" + v + "' (must be F, I or U)");
-        h.types.push_back(v[0]);
-      }
-    } else if (key == "COUNT") {
-      h.counts.clear();
-      for (const auto& v : values) {
-        h.counts.push_back(pcd_count(v, kMaxCount, name, "COUNT"));
-        if (h.counts.back() == 0) throw Error(name + ": PCD COUNT 0 (every field has at least one element)");
-      }
-    } else if (key == "POINTS") {
-      if (values.size() != 1) throw Error(name + ": PCD POINTS needs one value");
-      h.points = pcd_count(values[0], max_points, name, "POINTS");
-      have_points = true;
-    } else if (key == "WIDTH" || key == "HEIGHT") {
-      // Not used (POINTS counts the points), but a value that is no count means a corrupt header.
-      if (values.size() != 1) throw Error(name + ": PCD " + key + " needs one value");
-      pcd_count(values[0], max_points, name, key);
-    } else if (key == "DATA") {
-      if (values.size() != 1) throw Error(name + ": PCD DATA needs one value");
-      h.data = values[0];
+  } else if (key == "TYPE") {
+    h.types.clear();
+    for (const auto& v : values) {
+      if (v != "F" && v != "I" && v != "U") throw Error(name + ": PCD TYPE '" + v + "' (must be F, I or U)");
+      h.types.push_back(v[0]);
     }
+  } else if (key == "COUNT") {
+    h.counts.clear();
+    for (const auto& v : values) {
+      h.counts.push_back(pcd_count(v, kMaxCount, name, "COUNT"));
+      if (h.counts.back() == 0) throw Error(name + ": PCD COUNT 0 (every field has at least one element)");
+    }
+  } else if (key == "POINTS") {
+    if (values.size() != 1) throw Error(name + ": PCD POINTS needs one value");
+    h.points = pcd_count(values[0], max_points, name, "POINTS");
+    have_points = true;
+  } else if (key == "WIDTH" || key == "HEIGHT") {
+    // Not used (POINTS counts the points), but a value that is no count means a corrupt header.
+    if (values.size() != 1) throw Error(name + ": PCD " + key + " needs one value");
+    pcd_count(values[0], max_points, name, key);
+  } else if (key == "DATA") {
+    if (values.size() != 1) throw Error(name + ": PCD DATA needs one value");
+    h.data = values[0];
   }
+}
+
+// The header's fields checked against each other, then each one's offset and column in a point.
+void lay_out_pcd_fields(PcdHeader& h, const std::string& name, bool have_points) {
   if (h.counts.empty()) h.counts.assign(h.fields.size(), 1);
   if (h.fields.empty() || h.sizes.size() != h.fields.size() || h.types.size() != h.fields.size() ||
       h.counts.size() != h.fields.size()) {
@@ -104,6 +94,28 @@ PcdHeader parse_pcd_header(const std::function<bool(std::string&)>& next_line, c
       (h.types[static_cast<std::size_t>(h.intensity)] != 'F' || h.sizes[static_cast<std::size_t>(h.intensity)] != 4)) {
     throw Error(name + ": PCD intensity must be float32");
   }
+}
+
+}  // namespace
+
+PcdHeader parse_pcd_header(const std::function<bool(std::string&)>& next_line, const std::string& name,
+                           std::uint64_t max_points) {
+  PcdHeader h;
+  bool have_points = false;
+  constexpr std::uint64_t kMaxFields = 256;
+  for (std::string line; h.data.empty() && next_line(line);) {
+    std::istringstream ss(line);
+    std::string key;
+    ss >> key;
+    std::vector<std::string> values;
+    for (std::string v; ss >> v;) {
+      values.push_back(v);
+      if (values.size() > kMaxFields)
+        throw Error(name + ": PCD " + key + " has more than " + std::to_string(kMaxFields) + " values");
+    }
+    read_pcd_header_line(h, key, values, name, max_points, have_points);
+  }
+  lay_out_pcd_fields(h, name, have_points);
   return h;
 }
 

@@ -75,13 +75,15 @@ std::optional<float> as_float(double v) {
   return static_cast<float>(v);
 }
 
-}  // namespace
-
-PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_t* data, std::size_t size,
-                              PointCloud2Stats* stats, const std::string& what) {
-  // The fields we use, each named once, of a known type, within point_step.
+// The fields decode_pointcloud2 reads; x, y and z are always there once used_fields returns.
+struct UsedFields {
   std::optional<FieldReader> x, y, z, intensity;
-  const bool little_endian = !layout.is_bigendian;
+};
+
+// The fields we use, each named once, of a known type, within point_step.
+UsedFields used_fields(const PointCloud2Layout& layout, bool little_endian, const std::string& what) {
+  UsedFields u;
+  std::optional<FieldReader>&x = u.x, &y = u.y, &z = u.z, &intensity = u.intensity;
   for (const PointField& f : layout.fields) {
     std::optional<FieldReader>* slot = f.name == "x"           ? &x
                                        : f.name == "y"         ? &y
@@ -124,8 +126,11 @@ PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_
                   " (x, y and z must be FLOAT32 or FLOAT64)");
     }
   }
+  return u;
+}
 
-  // Sizes, checked before anything is read or allocated.
+// Sizes, checked before anything is read or allocated. Returns the number of points (width * height).
+std::uint64_t checked_point_count(const PointCloud2Layout& layout, std::size_t size, const std::string& what) {
   const std::uint64_t points = io::checked_mul(layout.width, layout.height, what + ": PointCloud2 width * height");
   if (points > limits::kMaxScanPoints) {
     throw Error(what + ": PointCloud2 of " + std::to_string(layout.width) + " x " + std::to_string(layout.height) +
@@ -149,7 +154,13 @@ PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_
                   " bytes apart) need " + std::to_string(needed));
     }
   }
+  return points;
+}
 
+// Every point with finite x, y and z; the others are counted in *dropped.
+PointCloud read_points(const PointCloud2Layout& layout, const std::uint8_t* data, std::uint64_t points,
+                       const UsedFields& u, bool little_endian, std::size_t* dropped_out) {
+  const std::optional<FieldReader>&x = u.x, &y = u.y, &z = u.z, &intensity = u.intensity;
   PointCloud cloud;
   cloud.points.reserve(static_cast<std::size_t>(points));
   if (intensity) cloud.intensity.reserve(static_cast<std::size_t>(points));
@@ -186,6 +197,19 @@ PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_
       if (intensity) cloud.intensity.push_back(as_float(intensity->read(point)).value_or(0.0f));
     }
   }
+  *dropped_out = dropped;
+  return cloud;
+}
+
+}  // namespace
+
+PointCloud decode_pointcloud2(const PointCloud2Layout& layout, const std::uint8_t* data, std::size_t size,
+                              PointCloud2Stats* stats, const std::string& what) {
+  const bool little_endian = !layout.is_bigendian;
+  const UsedFields fields = used_fields(layout, little_endian, what);
+  const std::uint64_t points = checked_point_count(layout, size, what);
+  std::size_t dropped = 0;
+  PointCloud cloud = read_points(layout, data, points, fields, little_endian, &dropped);
   if (stats) {
     stats->points = static_cast<std::size_t>(points);
     stats->dropped_non_finite = dropped;

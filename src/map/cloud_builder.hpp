@@ -422,6 +422,19 @@ class Builder {
   // the propagation and to carve the space between surfaces).
   void orient_by_visibility();
 
+  // One planar point's sight lines along the directions within 60 deg of its normal either way: per side (0: along the
+  // normal), the lines that reach a surface far off and those that meet a parallel one close by; `seen` holds the
+  // far surface point each direction reached (kNone if none).
+  struct SightVotes {
+    int far[2] = {0, 0}, close[2] = {0, 0};
+    std::array<std::uint32_t, 24> seen;
+  };
+  SightVotes look_both_ways(std::uint32_t i, const std::vector<Vector3f>& dirs, const Vector3f& lo, const Vector3f& hi,
+                            float near, float sheet) const;
+
+  // Two-sided, or oriented towards the side with the better score; false where the votes decide nothing.
+  bool orient_by_votes(std::uint32_t i, const SightVotes& votes);
+
   // Most confident first, each undecided planar point takes the side of the neighbour on its sheet that reaches it
   // first (normals at least 45 deg apart do not pass it on: creases are where orientations go wrong).
   void propagate_orientation();

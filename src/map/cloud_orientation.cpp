@@ -138,6 +138,56 @@ void Builder::orient_by_trajectory() {
   });
 }
 
+Builder::SightVotes Builder::look_both_ways(std::uint32_t i, const std::vector<Vector3f>& dirs, const Vector3f& lo,
+                                            const Vector3f& hi, float near, float sheet) const {
+  const Vector3f& p = w_.anchor[i];
+  const Vector3f& nrm = w_.normal[i];
+  SightVotes votes;
+  votes.seen.fill(kNone);
+  for (std::size_t d = 0; d < dirs.size(); ++d) {
+    const float c = dirs[d].dot(nrm);
+    if (std::abs(c) < 0.5f) continue;
+    const int s = c > 0.0f ? 0 : 1;
+    // To the first point off this point's sheet, or out of the cloud's box.
+    float length = o_.max_range;
+    for (int a = 0; a < 3; ++a) {
+      if (dirs[d][a] > 0.0f) length = std::min(length, (hi[a] + vs_ - p[a]) / dirs[d][a]);
+      if (dirs[d][a] < 0.0f) length = std::min(length, (lo[a] - vs_ - p[a]) / dirs[d][a]);
+    }
+    std::uint32_t hit = kNone;
+    float at = 0.0f;
+    trace(grid_, vs_, p, dirs[d], std::max(length, 0.0f), [&](std::uint32_t j, float t) {
+      if (j == i || std::abs(nrm.dot(w_.anchor[j] - p)) <= sheet) return true;
+      hit = j;
+      at = t;
+      return false;
+    });
+    if (hit == kNone) continue;  // escaped: unobserved space, no vote
+    if (at < near && std::abs(w_.normal[hit].dot(nrm)) > 0.7f) {
+      ++votes.close[s];
+    } else if (at >= near) {
+      ++votes.far[s];
+      votes.seen[d] = hit;
+    }
+  }
+  return votes;
+}
+
+bool Builder::orient_by_votes(std::uint32_t i, const SightVotes& votes) {
+  const int score0 = votes.far[0] - 2 * votes.close[0], score1 = votes.far[1] - 2 * votes.close[1];
+  if (votes.far[0] >= 2 && votes.far[1] >= 2 && votes.close[0] + votes.close[1] == 0) {
+    w_.flags[i] |= kTwoSided;
+  } else if (std::abs(score0 - score1) >= 2) {
+    if (score1 > score0) w_.normal[i] = -w_.normal[i];
+    w_.orient[i] = 1;
+    w_.source[i] = Source::kVisibility;
+    w_.confidence[i] = 0.5f * static_cast<float>(std::abs(score0 - score1));
+  } else {
+    return false;
+  }
+  return true;
+}
+
 void Builder::orient_by_visibility() {
   const std::size_t n = w_.size();
   const std::vector<Vector3f> dirs = sphere_directions(24);
@@ -163,52 +213,12 @@ void Builder::orient_by_visibility() {
           0) {
         continue;
       }
-      const Vector3f& p = w_.anchor[i];
-      const Vector3f& nrm = w_.normal[i];
-      int far[2] = {0, 0}, close[2] = {0, 0};
-      std::array<std::uint32_t, 24> seen;
-      seen.fill(kNone);
-      for (std::size_t d = 0; d < dirs.size(); ++d) {
-        const float c = dirs[d].dot(nrm);
-        if (std::abs(c) < 0.5f) continue;
-        const int s = c > 0.0f ? 0 : 1;
-        // To the first point off this point's sheet, or out of the cloud's box.
-        float length = o_.max_range;
-        for (int a = 0; a < 3; ++a) {
-          if (dirs[d][a] > 0.0f) length = std::min(length, (hi[a] + vs_ - p[a]) / dirs[d][a]);
-          if (dirs[d][a] < 0.0f) length = std::min(length, (lo[a] - vs_ - p[a]) / dirs[d][a]);
-        }
-        std::uint32_t hit = kNone;
-        float at = 0.0f;
-        trace(grid_, vs_, p, dirs[d], std::max(length, 0.0f), [&](std::uint32_t j, float t) {
-          if (j == i || std::abs(nrm.dot(w_.anchor[j] - p)) <= sheet) return true;
-          hit = j;
-          at = t;
-          return false;
-        });
-        if (hit == kNone) continue;  // escaped: unobserved space, no vote
-        if (at < near && std::abs(w_.normal[hit].dot(nrm)) > 0.7f) {
-          ++close[s];
-        } else if (at >= near) {
-          ++far[s];
-          seen[d] = hit;
-        }
-      }
-      const int score0 = far[0] - 2 * close[0], score1 = far[1] - 2 * close[1];
-      if (far[0] >= 2 && far[1] >= 2 && close[0] + close[1] == 0) {
-        w_.flags[i] |= kTwoSided;
-      } else if (std::abs(score0 - score1) >= 2) {
-        if (score1 > score0) w_.normal[i] = -w_.normal[i];
-        w_.orient[i] = 1;
-        w_.source[i] = Source::kVisibility;
-        w_.confidence[i] = 0.5f * static_cast<float>(std::abs(score0 - score1));
-      } else {
-        continue;
-      }
+      const SightVotes votes = look_both_ways(i, dirs, lo, hi, near, sheet);
+      if (!orient_by_votes(i, votes)) continue;
       // The open sides' sight lines, to carve once every point is oriented.
       for (std::size_t d = 0; d < dirs.size(); ++d) {
-        if (seen[d] == kNone) continue;
-        if ((w_.flags[i] & kTwoSided) || dirs[d].dot(w_.normal[i]) > 0.0f) my_hits.emplace_back(i, seen[d]);
+        if (votes.seen[d] == kNone) continue;
+        if ((w_.flags[i] & kTwoSided) || dirs[d].dot(w_.normal[i]) > 0.0f) my_hits.emplace_back(i, votes.seen[d]);
       }
     }
     const std::size_t d = done.fetch_add(end - blocks[k].first) + (end - blocks[k].first);

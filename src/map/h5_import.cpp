@@ -103,6 +103,67 @@ std::vector<std::uint32_t> read_chunk(hid_t group, const Chunk& chunk, const std
   return words;
 }
 
+// The chunks /map names, each checked, and the box of chunk indices they span.
+struct ChunkList {
+  std::vector<Chunk> chunks;
+  Eigen::Vector3i lo = Eigen::Vector3i::Constant(INT32_MAX), hi = Eigen::Vector3i::Constant(INT32_MIN);
+};
+
+ChunkList list_chunks(hid_t group_id, hsize_t links, const std::string& where) {
+  ChunkList list;
+  std::set<std::tuple<int, int, int>> seen;
+  for (hsize_t i = 0; i < links; ++i) {
+    const ssize_t length = H5Lget_name_by_idx(group_id, ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
+    if (length < 0) throw Error("cannot list /map in " + where);
+    std::string name(static_cast<std::size_t>(length) + 1, '\0');
+    H5Lget_name_by_idx(group_id, ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), name.size(), H5P_DEFAULT);
+    name.resize(static_cast<std::size_t>(length));
+    Chunk c{name, {}};
+    if (!parse_chunk_name(name, c.index)) {
+      throw Error(where + ": dataset /map/" + name + " is not named like a chunk (cx_cy_cz)");
+    }
+    // Voxel indices chunk*64 + 63 must stay within int with room for the block arithmetic.
+    if ((c.index.array().abs() > (1 << 20)).any())
+      throw Error(where + ": chunk /map/" + name + " is implausibly far out");
+    if (!seen.emplace(c.index.x(), c.index.y(), c.index.z()).second) {
+      throw Error(where + ": two datasets name chunk " + name);
+    }
+    list.lo = list.lo.cwiseMin(c.index);
+    list.hi = list.hi.cwiseMax(c.index);
+    list.chunks.push_back(std::move(c));
+  }
+  return list;
+}
+
+// One chunk's voxels into the map's blocks; a block with no observed voxel stays unknown.
+void copy_chunk(TsdfMap& map, const Chunk& c, const std::vector<std::uint32_t>& words) {
+  std::array<std::int16_t, TsdfMap::kVoxelsPerBlock> block{};
+  for (int bz = 0; bz < kBlocksPerChunk; ++bz)
+    for (int by = 0; by < kBlocksPerChunk; ++by)
+      for (int bx = 0; bx < kBlocksPerChunk; ++bx) {
+        bool any_known = false;
+        for (int lz = 0; lz < TsdfMap::kBlockSize; ++lz)
+          for (int ly = 0; ly < TsdfMap::kBlockSize; ++ly)
+            for (int lx = 0; lx < TsdfMap::kBlockSize; ++lx) {
+              const int i = bx * TsdfMap::kBlockSize + lx;
+              const int j = by * TsdfMap::kBlockSize + ly;
+              const int k = bz * TsdfMap::kBlockSize + lz;
+              const std::uint32_t word = words[static_cast<std::size_t>((i * kChunkSize + j) * kChunkSize + k)];
+              const auto value_mm = static_cast<std::int16_t>(word & 0xFFFFu);
+              const auto weight = static_cast<std::int16_t>(word >> 16);
+              auto& out = block[static_cast<std::size_t>(lx + TsdfMap::kBlockSize * (ly + TsdfMap::kBlockSize * lz))];
+              // Integration only ever adds positive weights, so anything else is an unobserved voxel.
+              if (weight <= 0) {
+                out = TsdfMap::kUnknownValue;
+              } else {
+                out = map.quantize(static_cast<float>(value_mm) * 0.001f);
+                any_known = true;
+              }
+            }
+        if (any_known) map.set_block(c.index * kBlocksPerChunk + Eigen::Vector3i(bx, by, bz), block);
+      }
+}
+
 }  // namespace
 
 TsdfMap import_reference_h5(const fs::path& file, float truncation, std::uint64_t max_memory_bytes) {
@@ -123,33 +184,12 @@ TsdfMap import_reference_h5(const fs::path& file, float truncation, std::uint64_
   H5G_info_t info{};
   if (H5Gget_info(group.get(), &info) < 0) throw Error("cannot list /map in " + where);
 
-  std::vector<Chunk> chunks;
-  std::set<std::tuple<int, int, int>> seen;
-  Eigen::Vector3i lo = Eigen::Vector3i::Constant(INT32_MAX), hi = Eigen::Vector3i::Constant(INT32_MIN);
-  for (hsize_t i = 0; i < info.nlinks; ++i) {
-    const ssize_t length = H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
-    if (length < 0) throw Error("cannot list /map in " + where);
-    std::string name(static_cast<std::size_t>(length) + 1, '\0');
-    H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), name.size(), H5P_DEFAULT);
-    name.resize(static_cast<std::size_t>(length));
-    Chunk c{name, {}};
-    if (!parse_chunk_name(name, c.index)) {
-      throw Error(where + ": dataset /map/" + name + " is not named like a chunk (cx_cy_cz)");
-    }
-    // Voxel indices chunk*64 + 63 must stay within int with room for the block arithmetic.
-    if ((c.index.array().abs() > (1 << 20)).any())
-      throw Error(where + ": chunk /map/" + name + " is implausibly far out");
-    if (!seen.emplace(c.index.x(), c.index.y(), c.index.z()).second) {
-      throw Error(where + ": two datasets name chunk " + name);
-    }
-    lo = lo.cwiseMin(c.index);
-    hi = hi.cwiseMax(c.index);
-    chunks.push_back(std::move(c));
-  }
+  const ChunkList list = list_chunks(group.get(), info.nlinks, where);
+  const std::vector<Chunk>& chunks = list.chunks;
   if (chunks.empty()) throw Error(where + ": /map holds no chunks");
 
-  const Eigen::Vector3i min_block = lo * kBlocksPerChunk;
-  const Eigen::Vector3i dims = (hi - lo).array() * kBlocksPerChunk + kBlocksPerChunk;
+  const Eigen::Vector3i min_block = list.lo * kBlocksPerChunk;
+  const Eigen::Vector3i dims = (list.hi - list.lo).array() * kBlocksPerChunk + kBlocksPerChunk;
   TsdfMap::validate_geometry(kReferenceVoxelSize, truncation, min_block, dims);
   BuildBudget budget(max_memory_bytes);
   budget.charge(dims.cast<std::uint64_t>().prod() * sizeof(std::uint32_t), "the chunks' bounding box in blocks");
@@ -158,34 +198,7 @@ TsdfMap import_reference_h5(const fs::path& file, float truncation, std::uint64_
                                             TsdfMap::kWordsPerBlock * sizeof(std::uint32_t);
   budget.charge(chunks.size() * 2 * kChunkPoolBytes, "the chunks' blocks");
   TsdfMap map(kReferenceVoxelSize, truncation, min_block, dims);
-  std::array<std::int16_t, TsdfMap::kVoxelsPerBlock> block{};
-  for (const Chunk& c : chunks) {
-    const std::vector<std::uint32_t> words = read_chunk(group.get(), c, where);
-    for (int bz = 0; bz < kBlocksPerChunk; ++bz)
-      for (int by = 0; by < kBlocksPerChunk; ++by)
-        for (int bx = 0; bx < kBlocksPerChunk; ++bx) {
-          bool any_known = false;
-          for (int lz = 0; lz < TsdfMap::kBlockSize; ++lz)
-            for (int ly = 0; ly < TsdfMap::kBlockSize; ++ly)
-              for (int lx = 0; lx < TsdfMap::kBlockSize; ++lx) {
-                const int i = bx * TsdfMap::kBlockSize + lx;
-                const int j = by * TsdfMap::kBlockSize + ly;
-                const int k = bz * TsdfMap::kBlockSize + lz;
-                const std::uint32_t word = words[static_cast<std::size_t>((i * kChunkSize + j) * kChunkSize + k)];
-                const auto value_mm = static_cast<std::int16_t>(word & 0xFFFFu);
-                const auto weight = static_cast<std::int16_t>(word >> 16);
-                auto& out = block[static_cast<std::size_t>(lx + TsdfMap::kBlockSize * (ly + TsdfMap::kBlockSize * lz))];
-                // Integration only ever adds positive weights, so anything else is an unobserved voxel.
-                if (weight <= 0) {
-                  out = TsdfMap::kUnknownValue;
-                } else {
-                  out = map.quantize(static_cast<float>(value_mm) * 0.001f);
-                  any_known = true;
-                }
-              }
-          if (any_known) map.set_block(c.index * kBlocksPerChunk + Eigen::Vector3i(bx, by, bz), block);
-        }
-  }
+  for (const Chunk& c : chunks) copy_chunk(map, c, read_chunk(group.get(), c, where));
   map.compact();
   return map;
 }

@@ -35,6 +35,7 @@
 #include <deque>
 #include <exception>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "build_budget.hpp"
@@ -397,21 +398,21 @@ void validate(const Dataset& dataset, const std::vector<std::size_t>& scans, con
   }
 }
 
-}  // namespace
-
-TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size_t>& scans,
-                             const ScanMapOptions& options, const ProgressFn& progress) {
-  validate(dataset, scans, options);
-  const float vs = options.voxel_size;
-  const float trunc = options.truncation;
-  const std::size_t steps = 4 * scans.size();
+// The build's progress: four steps per scan (the box, the band, free space, the frontier), the last at the end.
+struct StepProgress {
+  const ProgressFn& progress;
+  std::size_t steps;
   std::size_t done = 0;
-  auto report = [&] {
+
+  void step() {
     ++done;
     if (progress) progress(done, steps);
-  };
+  }
+};
 
-  // Pass 0: the observed box (origins and points grown by the band and a voxel of walking slack).
+// Pass 0: the observed box (origins and points grown by the band and a voxel of walking slack).
+std::pair<Vector3f, Vector3f> observed_box(const Dataset& dataset, const std::vector<std::size_t>& scans,
+                                           const ScanMapOptions& options, StepProgress& progress) {
   Vector3f lo = Vector3f::Constant(std::numeric_limits<float>::infinity());
   Vector3f hi = -lo;
   std::size_t points = 0;
@@ -424,14 +425,64 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
       hi = hi.cwiseMax(p);
     }
     points += scan.points.size();
-    report();
+    progress.step();
   }
   if (points == 0) {
     throw Error("no scan point lies within the range limits [" + std::to_string(options.min_range) + ", " +
                 std::to_string(options.max_range) + "] m");
   }
-  const float border = trunc + vs + options.margin;
-  const Vector3f box_lo = lo.array() - border, box_hi = hi.array() + border;
+  const float border = options.truncation + options.voxel_size + options.margin;
+  return {lo.array() - border, hi.array() + border};
+}
+
+// Pass 1: the truncation band around every point. Pass 2: free space in front of the band. Pass 3: the frontier
+// blocks' free space, voxel by voxel (after all of pass 2: which blocks are frontier depends on every thread's).
+// Within passes 1 and 2 a thread's carving depends only on the band blocks it owns itself, so the threads never
+// wait for one another: each loads the scans on its own (cheap next to the integration) and runs at its own pace.
+enum class Pass { kBand, kCarve, kFrontier };
+
+void integrate(Accumulator& acc, int threads, std::initializer_list<Pass> passes, const Dataset& dataset,
+               const std::vector<std::size_t>& scans, const ScanMapOptions& options, StepProgress& progress) {
+  std::exception_ptr failure;
+#pragma omp parallel num_threads(threads)
+  {
+    const int thread = omp_get_thread_num();
+    Accumulator::Writer writer(acc, thread, omp_get_num_threads());
+    try {
+      for (const Pass pass : passes) {
+        for (std::size_t i : scans) {
+          const WorldScan scan = load_world_scan(dataset, i, options);
+          for (const Vector3f& p : scan.points) {
+            const Vector3f ray = p - scan.origin;
+            const float range = ray.norm();
+            if (pass == Pass::kBand) {
+              writer.band(scan.origin, ray / range, range);
+            } else {
+              writer.carve(scan.origin, ray / range, range, pass == Pass::kFrontier);
+            }
+          }
+          // Thread 0 is the calling thread: the callback runs where the caller expects it.
+          if (thread == 0 && progress.done + 1 < progress.steps) progress.step();
+        }
+      }
+    } catch (...) {
+#pragma omp critical(scan_integration_failure)
+      if (!failure) failure = std::current_exception();
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace
+
+TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size_t>& scans,
+                             const ScanMapOptions& options, const ProgressFn& progress) {
+  validate(dataset, scans, options);
+  const float vs = options.voxel_size;
+  const float trunc = options.truncation;
+  StepProgress steps{progress, 4 * scans.size()};
+
+  const auto [box_lo, box_hi] = observed_box(dataset, scans, options, steps);
   BuildBudget budget(options.max_memory_bytes);
   // Per cell of the box: the accumulator's slot, the box's and the result's coarse index entries.
   budget.charge(TsdfMap::box_cells(vs, trunc, box_lo, box_hi) * (3 * sizeof(std::uint32_t) + 1),
@@ -440,45 +491,10 @@ TsdfMap build_map_from_scans(const Dataset& dataset, const std::vector<std::size
   const int threads = std::max(1, omp_get_max_threads());
   Accumulator acc(box, threads, budget);
 
-  // Pass 1: the truncation band around every point. Pass 2: free space in front of the band. Pass 3: the frontier
-  // blocks' free space, voxel by voxel (after all of pass 2: which blocks are frontier depends on every thread's).
-  // Within passes 1 and 2 a thread's carving depends only on the band blocks it owns itself, so the threads never
-  // wait for one another: each loads the scans on its own (cheap next to the integration) and runs at its own pace.
-  enum class Pass { kBand, kCarve, kFrontier };
-  const auto run = [&](std::initializer_list<Pass> passes) {
-    std::exception_ptr failure;
-#pragma omp parallel num_threads(threads)
-    {
-      const int thread = omp_get_thread_num();
-      Accumulator::Writer writer(acc, thread, omp_get_num_threads());
-      try {
-        for (const Pass pass : passes) {
-          for (std::size_t i : scans) {
-            const WorldScan scan = load_world_scan(dataset, i, options);
-            for (const Vector3f& p : scan.points) {
-              const Vector3f ray = p - scan.origin;
-              const float range = ray.norm();
-              if (pass == Pass::kBand) {
-                writer.band(scan.origin, ray / range, range);
-              } else {
-                writer.carve(scan.origin, ray / range, range, pass == Pass::kFrontier);
-              }
-            }
-            // Thread 0 is the calling thread: the callback runs where the caller expects it.
-            if (thread == 0 && done + 1 < steps) report();
-          }
-        }
-      } catch (...) {
-#pragma omp critical(scan_integration_failure)
-        if (!failure) failure = std::current_exception();
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
-  };
-  run({Pass::kBand, Pass::kCarve});
-  if (acc.mark_frontier() > 0) run({Pass::kFrontier});
-  done = steps - 1;  // the last step: however many scans the frontier pass walked
-  report();
+  integrate(acc, threads, {Pass::kBand, Pass::kCarve}, dataset, scans, options, steps);
+  if (acc.mark_frontier() > 0) integrate(acc, threads, {Pass::kFrontier}, dataset, scans, options, steps);
+  steps.done = steps.steps - 1;  // the last step: however many scans the frontier pass walked
+  steps.step();
 
   TsdfMap map = acc.to_map();
   map.compact();

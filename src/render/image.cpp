@@ -12,8 +12,9 @@
 #include <utility>
 #include <vector>
 
-#include "tsdf_mcl/core/checked_math.hpp"
+#include "canvas.hpp"
 #include "clip.hpp"
+#include "tsdf_mcl/core/checked_math.hpp"
 #include "tsdf_mcl/io/atomic_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/input_file.hpp"
@@ -22,83 +23,15 @@ namespace tsdf_mcl {
 
 using Box = Eigen::AlignedBox2d;
 
-// Cairo draws on an image's 0x00RRGGBB copy of its pixels; every change is copied into the RGB rows at once.
-struct detail::ImageAccess {
-  static std::uint32_t* xrgb(Image& image, int x, int y) {
-    return image.xrgb_.data() + static_cast<std::size_t>(y) * image.width_ + x;
-  }
-  static const std::uint32_t* xrgb(const Image& image) { return image.xrgb_.data(); }
-  static Eigen::Vector4i clip(const Image& image) {
-    return {image.clip_x0_, image.clip_y0_, image.clip_x1_, image.clip_y1_};
-  }
-  // Copies the 0x00RRGGBB pixels x0 <= x < x1, y0 <= y < y1 into the RGB rows.
-  static void sync(Image& image, int x0, int y0, int x1, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const std::size_t row = static_cast<std::size_t>(y) * image.width_;
-      for (std::size_t i = row + x0; i < row + x1; ++i) {
-        const std::uint32_t p = image.xrgb_[i];
-        image.pixels_[3 * i] = static_cast<std::uint8_t>(p >> 16);
-        image.pixels_[3 * i + 1] = static_cast<std::uint8_t>(p >> 8);
-        image.pixels_[3 * i + 2] = static_cast<std::uint8_t>(p);
-      }
-    }
-  }
-};
-
 namespace {
 
 using detail::ImageAccess;
+using render::Canvas;
+using render::clamp01;
 
 constexpr double kQuarterTurn = 1.5707963267948966;
 // Cairo turns path coordinates into 24.8 fixed point, which ends at 2^23 pixels; paths are clipped well inside.
 constexpr double kMaxPathCoordinate = 1 << 21;
-
-float clamp01(float v) { return v > 0.0f ? std::min(v, 1.0f) : 0.0f; }  // NaN gives 0
-
-// One drawing operation: a Cairo context over the part of the image that the operation may touch (its bounds,
-// within the clip rectangle), in image pixel coordinates. Cairo cannot draw outside that part, which is copied into
-// the image's RGB rows when the operation ends, so the two copies of the pixels always agree.
-class Canvas {
- public:
-  Canvas(Image& image, const Box& bounds) : image_(image) {
-    if (image.empty() || !(bounds.min().array() <= bounds.max().array()).all()) return;  // empty or NaN
-    const Eigen::Vector4i clip = ImageAccess::clip(image);
-    x0_ = std::max(clip[0], io::saturated_floor(bounds.min().x()));
-    y0_ = std::max(clip[1], io::saturated_floor(bounds.min().y()));
-    x1_ = std::min(clip[2], io::saturated_ceil(bounds.max().x()));
-    y1_ = std::min(clip[3], io::saturated_ceil(bounds.max().y()));
-    if (x1_ <= x0_ || y1_ <= y0_) return;
-    // A surface over just this part keeps Cairo's device coordinates small and its work within the part.
-    surface_ = cairo_image_surface_create_for_data(reinterpret_cast<unsigned char*>(ImageAccess::xrgb(image, x0_, y0_)),
-                                                   CAIRO_FORMAT_RGB24, x1_ - x0_, y1_ - y0_, image.width() * 4);
-    cr_ = cairo_create(surface_);
-    cairo_translate(cr_, -x0_, -y0_);
-  }
-  Canvas(const Canvas&) = delete;
-  Canvas& operator=(const Canvas&) = delete;
-  ~Canvas() {
-    if (!cr_) return;
-    cairo_destroy(cr_);
-    cairo_surface_destroy(surface_);
-    ImageAccess::sync(image_, x0_, y0_, x1_, y1_);
-  }
-
-  explicit operator bool() const { return cr_ != nullptr; }
-  cairo_t* cr() const { return cr_; }
-  // The part grown by margin pixels: coordinates are clipped to it, so shapes cut there end out of sight.
-  Box guard(double margin) const {
-    return Box(Eigen::Vector2d(x0_ - margin, y0_ - margin), Eigen::Vector2d(x1_ + margin, y1_ + margin));
-  }
-  void set_color(Rgb color, float alpha) const {
-    cairo_set_source_rgba(cr_, color.r / 255.0, color.g / 255.0, color.b / 255.0, clamp01(alpha));
-  }
-
- private:
-  Image& image_;
-  int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
-  cairo_surface_t* surface_ = nullptr;
-  cairo_t* cr_ = nullptr;
-};
 
 Box finite_bounds(const std::vector<Eigen::Vector2f>& points) {
   Box box;
@@ -557,70 +490,6 @@ Image compose_grid(const std::vector<Image>& images, int columns, int gap, Rgb b
     out.blit(images[i], c * (cell_w + gap), r * (cell_h + gap));
   }
   return out;
-}
-
-void save_png(const Image& image, const std::filesystem::path& file) {
-  if (image.empty()) throw Error("cannot write image " + file.string() + ": the image is empty");
-  std::error_code ec;
-  const auto parent = file.parent_path();
-  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
-    throw Error("cannot write image " + file.string() + ": folder " + parent.string() + " does not exist");
-  }
-  // Cairo only reads the pixels here.
-  auto* data = reinterpret_cast<unsigned char*>(const_cast<std::uint32_t*>(ImageAccess::xrgb(image)));
-  cairo_surface_t* surface =
-      cairo_image_surface_create_for_data(data, CAIRO_FORMAT_RGB24, image.width(), image.height(), image.width() * 4);
-  std::string encoded;
-  const auto append = [](void* closure, const unsigned char* bytes, unsigned int length) {
-    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(bytes), length);
-    return CAIRO_STATUS_SUCCESS;
-  };
-  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append, &encoded);
-  cairo_surface_destroy(surface);
-  if (status != CAIRO_STATUS_SUCCESS) {
-    throw Error("cannot write image " + file.string() + ": PNG encoding failed (" + cairo_status_to_string(status) +
-                ")");
-  }
-  write_file_atomically(file, encoded, "image");
-}
-
-Image load_png(const std::filesystem::path& file) {
-  // Even RGBA that does not compress takes about 4 bytes a pixel: a larger file holds no 8-bit image within the limit.
-  constexpr std::uint64_t kMaxBytes = std::uint64_t{4} * kMaxImageSide * kMaxImageSide;
-  const std::string bytes = read_input_file(file, "image", kMaxBytes);
-  struct Reader {
-    const std::string& bytes;
-    std::size_t offset = 0;
-  } reader{bytes};
-  const auto read = [](void* closure, unsigned char* data, unsigned int length) {
-    auto& r = *static_cast<Reader*>(closure);
-    if (r.bytes.size() - r.offset < length) return CAIRO_STATUS_READ_ERROR;
-    std::memcpy(data, r.bytes.data() + r.offset, length);
-    r.offset += length;
-    return CAIRO_STATUS_SUCCESS;
-  };
-  cairo_surface_t* png = cairo_image_surface_create_from_png_stream(read, &reader);
-  const cairo_status_t status = cairo_surface_status(png);
-  if (status != CAIRO_STATUS_SUCCESS) {
-    cairo_surface_destroy(png);
-    const bool corrupt = status == CAIRO_STATUS_READ_ERROR || status == CAIRO_STATUS_PNG_ERROR;
-    throw Error("cannot read image " + file.string() + ": " +
-                (corrupt ? std::string("not a PNG file, or a corrupt one") : cairo_status_to_string(status)));
-  }
-  Image image;
-  try {
-    image = Image(cairo_image_surface_get_width(png), cairo_image_surface_get_height(png));
-  } catch (const Error& e) {
-    cairo_surface_destroy(png);
-    throw Error("cannot read image " + file.string() + ": " + e.what());
-  }
-  {
-    const Canvas canvas(image, Box(Eigen::Vector2d::Zero(), Eigen::Vector2d(image.width(), image.height())));
-    cairo_set_source_surface(canvas.cr(), png, 0.0, 0.0);
-    cairo_paint(canvas.cr());
-  }
-  cairo_surface_destroy(png);
-  return image;
 }
 
 }  // namespace tsdf_mcl

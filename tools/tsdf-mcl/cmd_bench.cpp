@@ -10,58 +10,54 @@
 
 namespace tsdf_mcl::cli {
 
-int run_bench(int argc, char** argv) {
-  Options o(
-      "bench",
-      "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
-      "[--spread local|global] [--backend cpu,vulkan] [--profile] [--loop SECONDS]",
-      {
-          {"map", "MAP", "", "TSDF map file (tsdf-mcl build-map)"},
-          {"dataset", "DIR", "", "dataset with scans and poses.txt (the true pose places the particles)"},
-          {"scan", "K", "1", "index of the scan whose points are used"},
-          {"particles", "LIST", "1000,10000,50000,100000", "particle counts, comma-separated"},
-          {"points", "M", "1024", "scan points per particle (spread over the whole scan)"},
-          {"spread", "local|global", "local", "particles around the true pose (0.5 m, 10 deg) or uniform over the map"},
-          {"order", "none|spatial", "none",
-           "particle order: as drawn (as the filter keeps them) or sorted into Morton order of position"},
-          {"weighing", "whole|subset_first", "whole",
-           "cpu, vulkan: every particle on the whole scan, or subset first as the filter weighs large sets "
-           "(--subset_points, --subset_share)"},
-          {"subset_points", "K", std::to_string(SubsetFirstOptions{}.points),
-           "--weighing subset_first: points of the first pass"},
-          {"subset_share", "S",
-           [] {
-             std::ostringstream share;
-             share << SubsetFirstOptions{}.share;
-             return share.str();
-           }(),
-           "--weighing subset_first: share of the particles weighed on the whole scan"},
-          {"backend", "LIST", "cpu,vulkan",
-           "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
-          {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
-          {"warmup", "W", "2", "untimed runs first (lavapipe compiles on the first dispatch)"},
-          {"sigma_hit", "M", "0.1", "endpoint model sigma (m)"},
-          {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
-          {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
-          {"seed", "N", "1", "random seed for the particle placement"},
-          {"map_reads", "texel|storage", "texel",
-           "vulkan: read the map through texel-buffer views or the storage buffers"},
-          {"weight_layout", "auto|invocation|subgroup", "auto",
-           "vulkan: an invocation or a subgroup per particle in the weighting shader (auto: subgroup on GPUs, "
-           "invocation on CPU devices such as lavapipe)"},
-          {"profile", "", "",
-           "shader profiling run: per-pass GPU time (transfer, weight, reduce) and invocations, the driver's shader "
-           "statistics, debug names and labels for RenderDoc / Nsight (extra JSON lines, \"profile\": ...)"},
-          {"loop", "SECONDS", "0",
-           "after each backend's measurements keep dispatching the largest count's update this long (for an "
-           "external profiler)"},
-      },
-      argc, argv, 2);
-  if (o.help_requested()) {
-    std::printf("%s", o.help_text().c_str());
-    return 0;
-  }
-  o.expect_positional(0, "no positional arguments");
+namespace {
+
+// bench's options: the scene, the particle counts and spread, the weighing, the backends, the model, profiling.
+std::vector<OptionSpec> bench_options() {
+  return {
+      {"map", "MAP", "", "TSDF map file (tsdf-mcl build-map)"},
+      {"dataset", "DIR", "", "dataset with scans and poses.txt (the true pose places the particles)"},
+      {"scan", "K", "1", "index of the scan whose points are used"},
+      {"particles", "LIST", "1000,10000,50000,100000", "particle counts, comma-separated"},
+      {"points", "M", "1024", "scan points per particle (spread over the whole scan)"},
+      {"spread", "local|global", "local", "particles around the true pose (0.5 m, 10 deg) or uniform over the map"},
+      {"order", "none|spatial", "none",
+       "particle order: as drawn (as the filter keeps them) or sorted into Morton order of position"},
+      {"weighing", "whole|subset_first", "whole",
+       "cpu, vulkan: every particle on the whole scan, or subset first as the filter weighs large sets "
+       "(--subset_points, --subset_share)"},
+      {"subset_points", "K", std::to_string(SubsetFirstOptions{}.points),
+       "--weighing subset_first: points of the first pass"},
+      {"subset_share", "S",
+       [] {
+         std::ostringstream share;
+         share << SubsetFirstOptions{}.share;
+         return share.str();
+       }(),
+       "--weighing subset_first: share of the particles weighed on the whole scan"},
+      {"backend", "LIST", "cpu,vulkan",
+       "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
+      {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
+      {"warmup", "W", "2", "untimed runs first (lavapipe compiles on the first dispatch)"},
+      {"sigma_hit", "M", "0.1", "endpoint model sigma (m)"},
+      {"likelihood", "product|sum", "product", "log-domain product or the reference's summed form"},
+      {"interpolation", "nearest|trilinear", "nearest", "TSDF lookup"},
+      {"seed", "N", "1", "random seed for the particle placement"},
+      {"map_reads", "texel|storage", "texel", "vulkan: read the map through texel-buffer views or the storage buffers"},
+      {"weight_layout", "auto|invocation|subgroup", "auto",
+       "vulkan: an invocation or a subgroup per particle in the weighting shader (auto: subgroup on GPUs, "
+       "invocation on CPU devices such as lavapipe)"},
+      {"profile", "", "",
+       "shader profiling run: per-pass GPU time (transfer, weight, reduce) and invocations, the driver's shader "
+       "statistics, debug names and labels for RenderDoc / Nsight (extra JSON lines, \"profile\": ...)"},
+      {"loop", "SECONDS", "0",
+       "after each backend's measurements keep dispatching the largest count's update this long (for an "
+       "external profiler)"},
+  };
+}
+
+// The measurements the options ask for, each option checked.
+bench::BenchConfig bench_config(const Options& o) {
   bench::BenchConfig config;
   config.particle_counts.clear();
   for (double v : o.numbers("particles")) {
@@ -108,6 +104,23 @@ int run_bench(int argc, char** argv) {
   config.profile = o.flag("profile");
   config.loop_seconds = o.number("loop");
   if (!(config.loop_seconds >= 0.0) || config.loop_seconds > 86400.0) throw Error("--loop must lie in [0, 86400] s");
+
+  return config;
+}
+
+}  // namespace
+
+int run_bench(int argc, char** argv) {
+  Options o("bench",
+            "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
+            "[--spread local|global] [--backend cpu,vulkan] [--profile] [--loop SECONDS]",
+            bench_options(), argc, argv, 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  o.expect_positional(0, "no positional arguments");
+  bench::BenchConfig config = bench_config(o);
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));

@@ -74,48 +74,39 @@ std::vector<std::size_t> use_trajectory(Dataset& dataset, const std::vector<Stam
   return kept;
 }
 
-}  // namespace
+// build-map's options: one source, the map's geometry, the scans' ranges, the budget, the output.
+std::vector<OptionSpec> build_map_options() {
+  return with_verbosity_options(with_bag_options({
+      {"mesh", "FILE", "", "triangle mesh (STL, PLY, OBJ; need not be watertight) to build the map from"},
+      {"dataset", "DIR", "", "dataset whose scans are integrated at the poses of its poses.txt"},
+      {"cloud", "FILE", "", "point cloud map (.pcd ascii/binary/binary_compressed, .ply) to build the map from"},
+      {"trajectory", "FILE", "",
+       "the mapping run's trajectory. --dataset/--bag: integrate the scans at these poses (TUM, world_T_sensor, "
+       "interpolated at the scans' times) instead of the ground truth; scans outside its times are left out. "
+       "--cloud: the sensor positions (a TUM file or a dataset folder's poses.txt), which orient normals and "
+       "carve free space along sight lines"},
+      {"import_h5", "FILE", "", "HDF5 map of the reference implementation to convert (0.064 m voxels)"},
+      {"start", "S", "0", "--dataset: first scan"},
+      {"stride", "K", "1", "--dataset: use every K-th scan"},
+      {"count", "N", "0", "--dataset: number of scans (0 = all remaining)"},
+      {"voxel", "M", "0.05", "voxel size (m); not with --import_h5"},
+      {"truncation", "M", "", "truncation distance (m) [default: 0.3; 0.6 with --import_h5]"},
+      {"margin", "M", "1.0", "--mesh/--dataset: space added around the mesh or the observed box (m)"},
+      {"laser_min_range", "M", "0.3", "--dataset: ignore points closer to the sensor (m)"},
+      {"laser_max_range", "M", "60",
+       "--dataset: ignore points farther from the sensor (m); --cloud --trajectory: "
+       "farthest point a trajectory position sees"},
+      {"no_free_space", "", "",
+       "--mesh: leave blocks beyond the band unknown instead of filling free space; --cloud: "
+       "free space along sight lines only, no filling of enclosed regions"},
+      {"max_memory", "MIB", std::to_string(limits::kDefaultBuildMemoryMiB),
+       "memory budget of the build (the map and the builder's buffers); building stops with an error past it"},
+      {"output", "MAP", "", "map file to write"},
+  }));
+}
 
-int run_build_map(int argc, char** argv) {
-  Options o(
-      "build-map",
-      "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N]\n"
-      "                          | --cloud FILE [--trajectory FILE.tum|DIR] | --import_h5 FILE\n"
-      "                          [--voxel M] [--truncation M] -o MAP\n"
-      "       tsdf-mcl build-map --bag FILE --points TOPIC --ground_truth_topic TOPIC | --trajectory FILE.tum\n"
-      "                          ... -o MAP",
-      with_verbosity_options(with_bag_options({
-          {"mesh", "FILE", "", "triangle mesh (STL, PLY, OBJ; need not be watertight) to build the map from"},
-          {"dataset", "DIR", "", "dataset whose scans are integrated at the poses of its poses.txt"},
-          {"cloud", "FILE", "", "point cloud map (.pcd ascii/binary/binary_compressed, .ply) to build the map from"},
-          {"trajectory", "FILE", "",
-           "the mapping run's trajectory. --dataset/--bag: integrate the scans at these poses (TUM, world_T_sensor, "
-           "interpolated at the scans' times) instead of the ground truth; scans outside its times are left out. "
-           "--cloud: the sensor positions (a TUM file or a dataset folder's poses.txt), which orient normals and "
-           "carve free space along sight lines"},
-          {"import_h5", "FILE", "", "HDF5 map of the reference implementation to convert (0.064 m voxels)"},
-          {"start", "S", "0", "--dataset: first scan"},
-          {"stride", "K", "1", "--dataset: use every K-th scan"},
-          {"count", "N", "0", "--dataset: number of scans (0 = all remaining)"},
-          {"voxel", "M", "0.05", "voxel size (m); not with --import_h5"},
-          {"truncation", "M", "", "truncation distance (m) [default: 0.3; 0.6 with --import_h5]"},
-          {"margin", "M", "1.0", "--mesh/--dataset: space added around the mesh or the observed box (m)"},
-          {"laser_min_range", "M", "0.3", "--dataset: ignore points closer to the sensor (m)"},
-          {"laser_max_range", "M", "60",
-           "--dataset: ignore points farther from the sensor (m); --cloud --trajectory: "
-           "farthest point a trajectory position sees"},
-          {"no_free_space", "", "",
-           "--mesh: leave blocks beyond the band unknown instead of filling free space; --cloud: "
-           "free space along sight lines only, no filling of enclosed regions"},
-          {"max_memory", "MIB", std::to_string(limits::kDefaultBuildMemoryMiB),
-           "memory budget of the build (the map and the builder's buffers); building stops with an error past it"},
-          {"output", "MAP", "", "map file to write"},
-      })),
-      argc, argv, 2);
-  if (o.help_requested()) {
-    std::printf("%s", o.help_text().c_str());
-    return 0;
-  }
+// Exactly one source, an output file, and no option that the chosen source would ignore.
+void check_sources_and_output(const Options& o) {
   if (!o.positional().empty()) {
     throw Error("unexpected argument '" + o.positional().front() + "' (the map file goes after -o)");
   }
@@ -142,94 +133,136 @@ int run_build_map(int argc, char** argv) {
   }
   if (!o.has("mesh") && !o.has("cloud") && o.has("no_free_space"))
     throw Error("--no_free_space applies to --mesh and --cloud only");
+}
 
-  const bool h5 = o.has("import_h5");
+// The map's geometry and the build's memory budget, checked.
+struct BuildGeometry {
+  double voxel = 0.0;
+  double truncation = 0.0;
+  double margin = 0.0;
+  std::uint64_t max_memory = 0;  // bytes
+};
+
+BuildGeometry build_geometry(const Options& o, bool h5) {
   if (h5 && (o.has("voxel") || o.has("margin"))) {
     throw Error("--import_h5 keeps the reference map's 0.064 m voxels and extent (no --voxel, --margin)");
   }
-  const double voxel = h5 ? 0.064 : o.number("voxel");
-  const double truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
-  if (!(voxel >= kMinVoxel && voxel <= kMaxVoxel)) {
+  BuildGeometry g;
+  g.voxel = h5 ? 0.064 : o.number("voxel");
+  g.truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
+  if (!(g.voxel >= kMinVoxel && g.voxel <= kMaxVoxel)) {
     throw Error("--voxel must be in " + format("%g..%g m", kMinVoxel, kMaxVoxel) + ", got " + o.text("voxel"));
   }
   // The band integrated around every ray is truncation / voxel voxels deep: bounded so a build ends in its time.
-  const double max_truncation = std::min(kMaxTruncationVoxels * voxel, kMaxTruncation);
-  if (!(truncation >= voxel && truncation <= max_truncation)) {
-    throw Error("--truncation must be in " + format("%g..%g m", voxel, max_truncation) + " (at least the voxel, " +
+  const double max_truncation = std::min(kMaxTruncationVoxels * g.voxel, kMaxTruncation);
+  if (!(g.truncation >= g.voxel && g.truncation <= max_truncation)) {
+    throw Error("--truncation must be in " + format("%g..%g m", g.voxel, max_truncation) + " (at least the voxel, " +
                 "at most " + format("%g", kMaxTruncationVoxels) + " voxels and " + format("%g m", kMaxTruncation) +
-                "), got " + format("%g m", truncation));
+                "), got " + format("%g m", g.truncation));
   }
-  const double margin = o.number("margin");
-  if (margin < 0.0) throw Error("--margin must not be negative");
-  const std::uint64_t max_memory = std::uint64_t{o.count("max_memory", std::size_t{1} << 30)} << 20;
+  g.margin = o.number("margin");
+  if (g.margin < 0.0) throw Error("--margin must not be negative");
+  g.max_memory = std::uint64_t{o.count("max_memory", std::size_t{1} << 30)} << 20;
+  return g;
+}
+
+TsdfMap map_from_mesh(const Options& o, const BuildGeometry& g, const std::string& source, Progress& progress_out) {
+  const TriangleMesh mesh = load_mesh(source);
+  MeshMapOptions options;
+  options.voxel_size = static_cast<float>(g.voxel);
+  options.truncation = static_cast<float>(g.truncation);
+  options.margin = static_cast<float>(g.margin);
+  options.fill_free_space = !o.flag("no_free_space");
+  options.max_memory_bytes = g.max_memory;
+  ProgressLine progress(progress_out, source + " (" + std::to_string(mesh.vertices.size()) + " vertices, " +
+                                          std::to_string(mesh.triangles.size()) + " triangles): signed distances");
+  return build_map_from_mesh(mesh, options, std::ref(progress));
+}
+
+TsdfMap map_from_cloud(const Options& o, const BuildGeometry& g, const std::string& source, Progress& progress_out,
+                       Verbosity verbosity) {
+  CloudMapOptions options;
+  options.voxel_size = static_cast<float>(g.voxel);
+  options.truncation = static_cast<float>(g.truncation);
+  options.margin = static_cast<float>(g.margin);
+  options.max_range = static_cast<float>(o.number("laser_max_range"));
+  options.fill_free_space = !o.flag("no_free_space");
+  options.max_memory_bytes = g.max_memory;
+  if (o.has("trajectory")) options.trajectory = read_trajectory_positions(o.text("trajectory"));
+  CloudReader reader(source, g.max_memory);
+  CloudMapReport report;
+  TsdfMap map;
+  {
+    ProgressLine progress(progress_out,
+                          source + " (" + reader.format() + ", " + std::to_string(reader.size_hint()) + " points)");
+    map = build_map_from_cloud(reader, options, std::ref(progress), &report);
+  }
+  if (verbosity != Verbosity::kQuiet) std::fprintf(stderr, "%s", describe(report).c_str());
+  return map;
+}
+
+// A dataset's or a bag's scans, integrated at their ground-truth poses or at --trajectory's.
+TsdfMap map_from_scans(const Options& o, const BuildGeometry& g, const std::string& source, Progress& progress_out) {
+  Dataset dataset = open_dataset(o);
+  const ScanSelection selection{o.count("start"), o.count("stride"), o.count("count")};
+  std::vector<std::size_t> scans = selection.indices(dataset.size());
+  if (scans.empty()) {
+    throw Error("--start " + o.text("start") + " --stride " + o.text("stride") + " --count " + o.text("count") +
+                " selects none of the " + std::to_string(dataset.size()) + " scans");
+  }
+  if (const auto trajectory_file = o.maybe("trajectory")) {
+    scans = use_trajectory(dataset, read_tum(*trajectory_file), scans, *trajectory_file);
+  } else if (!dataset.has_poses()) {
+    throw Error(dataset.missing_poses() +
+                " (scans are integrated at their world_T_sensor poses; or give --trajectory FILE.tum)");
+  }
+  if (!dataset.summary().empty()) progress_out.note(dataset.summary());
+  ScanMapOptions options;
+  options.voxel_size = static_cast<float>(g.voxel);
+  options.truncation = static_cast<float>(g.truncation);
+  options.margin = static_cast<float>(g.margin);
+  options.min_range = static_cast<float>(o.number("laser_min_range"));
+  options.max_range = static_cast<float>(o.number("laser_max_range"));
+  options.max_memory_bytes = g.max_memory;
+  dataset.check_scans_not_empty(scans);
+  ProgressLine progress(progress_out, "integrating " + std::to_string(scans.size()) + " of " +
+                                          std::to_string(dataset.size()) + " scans of " + source);
+  return build_map_from_scans(dataset, scans, options, std::ref(progress));
+}
+
+}  // namespace
+
+int run_build_map(int argc, char** argv) {
+  Options o("build-map",
+            "tsdf-mcl build-map --mesh FILE | --dataset DIR [--start S --stride K --count N]\n"
+            "                          | --cloud FILE [--trajectory FILE.tum|DIR] | --import_h5 FILE\n"
+            "                          [--voxel M] [--truncation M] -o MAP\n"
+            "       tsdf-mcl build-map --bag FILE --points TOPIC --ground_truth_topic TOPIC | --trajectory FILE.tum\n"
+            "                          ... -o MAP",
+            build_map_options(), argc, argv, 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  check_sources_and_output(o);
+  const fs::path output = o.text("output");
+  const bool h5 = o.has("import_h5");
+  const BuildGeometry g = build_geometry(o, h5);
 
   const Verbosity verbosity = verbosity_of(o);
   Progress progress_out("build-map", verbosity);
   const auto started = std::chrono::steady_clock::now();
   TsdfMap map;
-  std::string source;
   if (h5) {
-    source = o.text("import_h5");
     // Beside the output: the scratch map is as large as the map, which the system's temporary folder may not hold.
-    map = import_reference_h5_isolated(source, static_cast<float>(truncation), max_memory,
+    map = import_reference_h5_isolated(o.text("import_h5"), static_cast<float>(g.truncation), g.max_memory,
                                        std::filesystem::absolute(output).parent_path());
   } else if (o.has("mesh")) {
-    source = o.text("mesh");
-    const TriangleMesh mesh = load_mesh(source);
-    MeshMapOptions options;
-    options.voxel_size = static_cast<float>(voxel);
-    options.truncation = static_cast<float>(truncation);
-    options.margin = static_cast<float>(margin);
-    options.fill_free_space = !o.flag("no_free_space");
-    options.max_memory_bytes = max_memory;
-    ProgressLine progress(progress_out, source + " (" + std::to_string(mesh.vertices.size()) + " vertices, " +
-                                            std::to_string(mesh.triangles.size()) + " triangles): signed distances");
-    map = build_map_from_mesh(mesh, options, std::ref(progress));
+    map = map_from_mesh(o, g, o.text("mesh"), progress_out);
   } else if (o.has("cloud")) {
-    source = o.text("cloud");
-    CloudMapOptions options;
-    options.voxel_size = static_cast<float>(voxel);
-    options.truncation = static_cast<float>(truncation);
-    options.margin = static_cast<float>(margin);
-    options.max_range = static_cast<float>(o.number("laser_max_range"));
-    options.fill_free_space = !o.flag("no_free_space");
-    options.max_memory_bytes = max_memory;
-    if (o.has("trajectory")) options.trajectory = read_trajectory_positions(o.text("trajectory"));
-    CloudReader reader(source, max_memory);
-    CloudMapReport report;
-    {
-      ProgressLine progress(progress_out,
-                            source + " (" + reader.format() + ", " + std::to_string(reader.size_hint()) + " points)");
-      map = build_map_from_cloud(reader, options, std::ref(progress), &report);
-    }
-    if (verbosity != Verbosity::kQuiet) std::fprintf(stderr, "%s", describe(report).c_str());
+    map = map_from_cloud(o, g, o.text("cloud"), progress_out, verbosity);
   } else {
-    source = o.has("bag") ? o.text("bag") : o.text("dataset");
-    Dataset dataset = open_dataset(o);
-    const ScanSelection selection{o.count("start"), o.count("stride"), o.count("count")};
-    std::vector<std::size_t> scans = selection.indices(dataset.size());
-    if (scans.empty()) {
-      throw Error("--start " + o.text("start") + " --stride " + o.text("stride") + " --count " + o.text("count") +
-                  " selects none of the " + std::to_string(dataset.size()) + " scans");
-    }
-    if (const auto trajectory_file = o.maybe("trajectory")) {
-      scans = use_trajectory(dataset, read_tum(*trajectory_file), scans, *trajectory_file);
-    } else if (!dataset.has_poses()) {
-      throw Error(dataset.missing_poses() +
-                  " (scans are integrated at their world_T_sensor poses; or give --trajectory FILE.tum)");
-    }
-    if (!dataset.summary().empty()) progress_out.note(dataset.summary());
-    ScanMapOptions options;
-    options.voxel_size = static_cast<float>(voxel);
-    options.truncation = static_cast<float>(truncation);
-    options.margin = static_cast<float>(margin);
-    options.min_range = static_cast<float>(o.number("laser_min_range"));
-    options.max_range = static_cast<float>(o.number("laser_max_range"));
-    options.max_memory_bytes = max_memory;
-    dataset.check_scans_not_empty(scans);
-    ProgressLine progress(progress_out, "integrating " + std::to_string(scans.size()) + " of " +
-                                            std::to_string(dataset.size()) + " scans of " + source);
-    map = build_map_from_scans(dataset, scans, options, std::ref(progress));
+    map = map_from_scans(o, g, o.has("bag") ? o.text("bag") : o.text("dataset"), progress_out);
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   save_map(map, output);

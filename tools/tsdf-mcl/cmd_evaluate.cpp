@@ -136,6 +136,90 @@ void print_verdict(const TrajectoryMetrics& m, const MetricsOptions& mo, const s
   }
 }
 
+// The thresholds of evaluate's test and of a false converged flag, checked.
+MetricsOptions metrics_options(const Options& o) {
+  MetricsOptions mo;
+  mo.max_translation_error = o.number("max_translation_error");
+  mo.max_rotation_error = angle_in_degrees(o.text("max_rotation_error"), "--max_rotation_error", M_PI);
+  mo.time_tolerance = o.number("time_tolerance");
+  if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
+    throw Error("thresholds must be positive and the time tolerance non-negative");
+  }
+  mo.false_convergence_translation = o.number("false_convergence_translation");
+  mo.false_convergence_rotation =
+      angle_in_degrees(o.text("false_convergence_rotation"), "--false_convergence_rotation", M_PI);
+  if (!(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
+    throw Error("false-convergence thresholds must be positive");
+  }
+  return mo;
+}
+
+// --report, or the report.json beside the estimate if there is one; empty: no converged flags to check.
+std::string report_file_of(const Options& o, const std::string& estimate_file) {
+  if (const auto r = o.maybe("report")) return *r;
+  const std::filesystem::path beside = std::filesystem::path(estimate_file).parent_path() / "report.json";
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(beside, ec)) return beside.string();
+  return {};
+}
+
+// The "filter_converged" and "false_convergence" entries: the converged flags against the ground truth.
+void add_claims_json(nlohmann::json& j, const TrajectoryMetrics& m, const MetricsOptions& mo,
+                     const std::string& report_file) {
+  if (!m.has_claims) {
+    j["filter_converged"] = nullptr;
+    j["false_convergence"] = nullptr;
+    return;
+  }
+  j["filter_converged"] = {
+      {"claimed_scans", m.claimed_converged},
+      {"first_scan",
+       m.claimed_converged > 0 ? nlohmann::json(m.errors[m.first_claim_index].truth_index) : nlohmann::json(nullptr)},
+      {"first_time_s", m.claimed_converged > 0 ? nlohmann::json(m.first_claim_time) : nlohmann::json(nullptr)}};
+  j["false_convergence"] = {
+      {"report", report_file},
+      {"claimed_converged_scans", m.claimed_converged},
+      {"false_claims", m.false_convergence},
+      {"first_false_scan",
+       m.false_convergence > 0 ? nlohmann::json(m.errors[m.first_false_index].truth_index) : nlohmann::json(nullptr)},
+      {"first_false_time_s", m.false_convergence > 0 ? nlohmann::json(m.first_false_time) : nlohmann::json(nullptr)},
+      {"thresholds",
+       {{"translation_m", mo.false_convergence_translation}, {"rotation_deg", mo.false_convergence_rotation * kDeg}}}};
+}
+
+// What evaluate prints: the ground-truth test, the errors after it passed, the converged flags' check.
+nlohmann::json metrics_json(const TrajectoryMetrics& m, const MetricsOptions& mo, const std::string& estimate_file,
+                            const Dataset& dataset, const std::string& report_file) {
+  nlohmann::json j;
+  j["estimate"] = estimate_file;
+  j["dataset"] = dataset.dir().string();
+  j["scans"] = m.errors.size();
+  // "localized" / "localized_from": evaluate's ground-truth test; "converged" / "convergence" are their former
+  // names, kept for scripts. The filter's own flag is "filter_converged".
+  j["localized"] = m.converged;
+  j["localized_from"] =
+      m.converged ? nlohmann::json{{"scan", m.errors[m.convergence_index].truth_index}, {"time_s", m.convergence_time}}
+                  : nlohmann::json(nullptr);
+  j["converged"] = m.converged;
+  j["localized_fraction"] = m.localized_fraction;
+  j["thresholds"] = {{"translation_m", mo.max_translation_error}, {"rotation_deg", mo.max_rotation_error * kDeg}};
+  if (m.converged) {
+    const PoseError& first = m.errors[m.convergence_index];
+    j["convergence"] = {
+        {"estimate_index", m.convergence_index}, {"scan", first.truth_index}, {"time_s", m.convergence_time}};
+    j["after_convergence"] = {{"scans", m.converged_count},
+                              {"ate_rmse_m", m.ate_rmse},
+                              {"rotation_rmse_deg", m.rotation_rmse * kDeg},
+                              {"max_translation_error_m", m.max_translation_error},
+                              {"max_rotation_error_deg", m.max_rotation_error * kDeg}};
+  } else {
+    j["convergence"] = nullptr;
+    j["after_convergence"] = nullptr;
+  }
+  add_claims_json(j, m, mo, report_file);
+  return j;
+}
+
 }  // namespace
 
 int run_evaluate(int argc, char** argv) {
@@ -170,80 +254,16 @@ int run_evaluate(int argc, char** argv) {
   if (const auto plot = o.maybe("plot")) check_output_file(*plot, "plot");
   const Dataset dataset = open_dataset(o);
   if (!dataset.has_poses()) throw Error(dataset.missing_poses() + " (ground truth)");
-  MetricsOptions mo;
-  mo.max_translation_error = o.number("max_translation_error");
-  mo.max_rotation_error = angle_in_degrees(o.text("max_rotation_error"), "--max_rotation_error", M_PI);
-  mo.time_tolerance = o.number("time_tolerance");
-  if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0)) {
-    throw Error("thresholds must be positive and the time tolerance non-negative");
-  }
-  mo.false_convergence_translation = o.number("false_convergence_translation");
-  mo.false_convergence_rotation =
-      angle_in_degrees(o.text("false_convergence_rotation"), "--false_convergence_rotation", M_PI);
-  if (!(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
-    throw Error("false-convergence thresholds must be positive");
-  }
+  const MetricsOptions mo = metrics_options(o);
   const std::vector<StampedPose> estimate = read_tum(estimate_file);
   if (estimate.empty()) throw Error("" + estimate_file + " holds no poses");
-  std::string report_file;
-  if (const auto r = o.maybe("report")) {
-    report_file = *r;
-  } else {
-    const std::filesystem::path beside = std::filesystem::path(estimate_file).parent_path() / "report.json";
-    std::error_code ec;
-    if (std::filesystem::is_regular_file(beside, ec)) report_file = beside.string();
-  }
+  const std::string report_file = report_file_of(o, estimate_file);
   std::vector<bool> claims;
   if (!report_file.empty()) claims = converged_claims(report_file, estimate);
   const TrajectoryMetrics m =
       evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo, report_file.empty() ? nullptr : &claims);
 
-  nlohmann::json j;
-  j["estimate"] = estimate_file;
-  j["dataset"] = dataset.dir().string();
-  j["scans"] = m.errors.size();
-  // "localized" / "localized_from": evaluate's ground-truth test; "converged" / "convergence" are their former
-  // names, kept for scripts. The filter's own flag is "filter_converged".
-  j["localized"] = m.converged;
-  j["localized_from"] =
-      m.converged ? nlohmann::json{{"scan", m.errors[m.convergence_index].truth_index}, {"time_s", m.convergence_time}}
-                  : nlohmann::json(nullptr);
-  j["converged"] = m.converged;
-  j["localized_fraction"] = m.localized_fraction;
-  j["thresholds"] = {{"translation_m", mo.max_translation_error}, {"rotation_deg", mo.max_rotation_error * kDeg}};
-  if (m.converged) {
-    const PoseError& first = m.errors[m.convergence_index];
-    j["convergence"] = {
-        {"estimate_index", m.convergence_index}, {"scan", first.truth_index}, {"time_s", m.convergence_time}};
-    j["after_convergence"] = {{"scans", m.converged_count},
-                              {"ate_rmse_m", m.ate_rmse},
-                              {"rotation_rmse_deg", m.rotation_rmse * kDeg},
-                              {"max_translation_error_m", m.max_translation_error},
-                              {"max_rotation_error_deg", m.max_rotation_error * kDeg}};
-  } else {
-    j["convergence"] = nullptr;
-    j["after_convergence"] = nullptr;
-  }
-  if (m.has_claims) {
-    j["filter_converged"] = {
-        {"claimed_scans", m.claimed_converged},
-        {"first_scan",
-         m.claimed_converged > 0 ? nlohmann::json(m.errors[m.first_claim_index].truth_index) : nlohmann::json(nullptr)},
-        {"first_time_s", m.claimed_converged > 0 ? nlohmann::json(m.first_claim_time) : nlohmann::json(nullptr)}};
-    j["false_convergence"] = {
-        {"report", report_file},
-        {"claimed_converged_scans", m.claimed_converged},
-        {"false_claims", m.false_convergence},
-        {"first_false_scan",
-         m.false_convergence > 0 ? nlohmann::json(m.errors[m.first_false_index].truth_index) : nlohmann::json(nullptr)},
-        {"first_false_time_s", m.false_convergence > 0 ? nlohmann::json(m.first_false_time) : nlohmann::json(nullptr)},
-        {"thresholds",
-         {{"translation_m", mo.false_convergence_translation},
-          {"rotation_deg", mo.false_convergence_rotation * kDeg}}}};
-  } else {
-    j["filter_converged"] = nullptr;
-    j["false_convergence"] = nullptr;
-  }
+  nlohmann::json j = metrics_json(m, mo, estimate_file, dataset, report_file);
   if (const auto plot = o.maybe("plot")) {
     plot_errors(m, mo, *plot);
     j["plot"] = *plot;

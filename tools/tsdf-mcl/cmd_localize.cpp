@@ -85,6 +85,177 @@ nlohmann::json parameters_json(const Options& o) {
   return j;
 }
 
+// An earlier run's results are kept unless the user says to replace them.
+void refuse_earlier_results(const Options& o) {
+  for (const char* earlier : {"report.json", "trajectory.tum"}) {
+    if (!o.flag("overwrite") && fs::exists(fs::path(o.text("output")) / earlier)) {
+      throw Error(one_line(o.text("output")) + " holds an earlier run's results (" + earlier +
+                  "); pass --overwrite to replace them or choose another -o");
+    }
+  }
+}
+
+// The scans --start/--stride/--count pick, checked against what the run needs before any work starts.
+std::vector<std::size_t> selected_scans(const Options& o, const Dataset& dataset, const LocalizerOptions& lo) {
+  ScanSelection selection;
+  selection.start = o.count("start");
+  selection.stride = o.count("stride");
+  selection.count = o.count("count");
+  const std::vector<std::size_t> scans = selection.indices(dataset.size());
+  if (scans.empty()) {
+    throw Error("--start " + std::to_string(selection.start) + " selects no scan (the dataset has " +
+                std::to_string(dataset.size()) + ")");
+  }
+  if (lo.filter.motion.type == MotionModelType::kOdometry && !dataset.has_odometry()) {
+    throw Error(dataset.missing_odometry() +
+                ", which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
+  }
+  // Empty scan files are caught before any work starts; scans whose points are all NaN or out of range can
+  // only be found while reading them.
+  dataset.check_scans_not_empty(scans);
+  return scans;
+}
+
+// --snapshot_every: where the particle sets go and how often.
+struct Snapshots {
+  std::size_t every = 0;
+  fs::path dir;
+  bool due(std::size_t k) const { return every > 0 && k % every == 0; }
+};
+
+Snapshots prepare_snapshots(const Options& o, const fs::path& out_dir, const LocalizerOptions& lo,
+                            const Localizer& localizer) {
+  Snapshots snapshots{o.count("snapshot_every"), out_dir / "snapshots"};
+  if (snapshots.every > 0) {
+    std::error_code ec;
+    fs::create_directories(snapshots.dir, ec);
+    if (ec) throw Error("cannot create " + snapshots.dir.string() + ": " + ec.message());
+    if (lo.initial_pose) write_particle_snapshot(snapshots.dir / "init.bin", localizer.snapshot());
+  }
+  return snapshots;
+}
+
+// One line on how the filter started: around the initial pose, or what the global search found.
+void report_initialization(Progress& progress, const Localizer& localizer, const Snapshots& snapshots) {
+  const InitializationRecord& init = *localizer.initialization();
+  if (!init.global) {
+    progress.note(std::to_string(init.particles) + " particles around the initial pose");
+    return;
+  }
+  std::string heights;
+  for (const GravityCandidate& c : init.candidates) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%s%.2f", heights.empty() ? "" : ",",
+                  c.has_height ? static_cast<double>(c.height) : NAN);
+    heights += buf;
+  }
+  char line[400];
+  std::snprintf(line, sizeof(line),
+                "global search: %zu up-direction candidates from the first scan%s (sensor heights %s m); best "
+                "%zu of %zu hypotheses over %zu free-space voxels kept",
+                init.candidates.size(), init.gravity_source == "imu" ? " and the IMU" : "",
+                heights.empty() ? "-" : heights.c_str(), init.particles, init.hypotheses_scored,
+                init.free_space_voxels);
+  progress.note(line);
+  if (snapshots.every > 0) write_particle_snapshot(snapshots.dir / "init.bin", localizer.snapshot());
+}
+
+// What the scan loop leaves for the report and the summary line.
+struct LocalizeRun {
+  std::vector<StampedPose> trajectory;
+  std::size_t dropped_total = 0;
+  double run_s = 0.0;
+};
+
+// Every selected scan through the localizer, each one's record appended to the report writer.
+LocalizeRun localize_scans(const Dataset& dataset, const std::vector<std::size_t>& scans,
+                           const std::vector<ImuSample>& imu, Localizer& localizer, const Snapshots& snapshots,
+                           const StagedOutputFolder& output, Progress& progress, ReportWriter& report_writer,
+                           LocalizeNarrator& narrator, bool reported_init) {
+  LocalizeRun run;
+  std::size_t imu_next = 0;
+  const Stopwatch t_run;
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    const std::size_t idx = scans[k];
+    const Stopwatch t0;
+    std::size_t dropped = 0;
+    const PointCloud cloud = dataset.load_scan(idx, &dropped);
+    const double load_ms = t0.ms();
+    run.dropped_total += dropped;
+    const std::optional<Pose> odometry =
+        dataset.has_odometry() ? std::optional<Pose>(dataset.odometry(idx)) : std::nullopt;
+    while (imu_next < imu.size() && imu[imu_next].time <= dataset.time(idx) + kImuLookAhead)
+      localizer.add_imu(imu[imu_next++]);
+    const ScanRecord* record = nullptr;
+    try {
+      record = &localizer.process(dataset.time(idx), cloud.points, odometry, idx);
+    } catch (const Error& e) {
+      throw Error(dataset.scan_path(idx).string() + ": " + e.what());
+    }
+    if (!reported_init) {
+      report_initialization(progress, localizer, snapshots);
+      reported_init = true;
+    }
+    const FilterStep& step = record->step;
+    run.trajectory.push_back({dataset.time(idx), step.estimate.pose});
+
+    nlohmann::json j = scan_json(*record);
+    j["scan"] = idx;
+    j["points"]["raw"] = cloud.size() + dropped;
+    j["points"]["dropped_non_finite"] = dropped;
+    j["timings_ms"]["load"] = load_ms;
+    if (snapshots.due(k)) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "scan_%06zu.bin", idx);
+      write_particle_snapshot(snapshots.dir / name, localizer.snapshot());
+      j["snapshot"] = (output.folder() / "snapshots" / name).string();
+    }
+    report_writer.add(j);
+
+    narrator.scan(k, idx, *record, dropped);
+  }
+  run.run_s = t_run.ms() / 1000.0;
+  return run;
+}
+
+// report.json's "summary": the localizer's own, with what only the command knows (scan numbers, drops, time).
+nlohmann::json summary_entry_json(const RunSummary& summary, const LocalizerOptions& lo, const LocalizeRun& run,
+                                  const Dataset& dataset, const std::vector<std::size_t>& scans,
+                                  const LocalizeNarrator& narrator, const std::optional<std::size_t>& converged_since) {
+  nlohmann::json summary_entry = summary_json(summary);
+  summary_entry["particles"]["initial"] = lo.filter.initial_particles;
+  summary_entry["dropped_non_finite_points"] = run.dropped_total;
+  summary_entry["converged_since_scan"] = converged_since ? nlohmann::json(*converged_since) : nlohmann::json(nullptr);
+  // The filter's own flag, first raised (evaluate's "localized from" is the ground-truth test).
+  summary_entry["first_converged_scan"] =
+      narrator.first_converged_scan() ? nlohmann::json(*narrator.first_converged_scan()) : nlohmann::json(nullptr);
+  summary_entry["converged_since_s"] = summary.converged_since_time
+                                           ? nlohmann::json(*summary.converged_since_time - dataset.time(scans.front()))
+                                           : nlohmann::json(nullptr);
+  summary_entry["wall_s"] = run.run_s;
+  return summary_entry;
+}
+
+// The run's closing line: counts, timings, particles, the verdict, scans by state, the files written.
+std::string summary_line(const RunSummary& summary, const LocalizerOptions& lo, const LocalizeRun& run,
+                         std::size_t scan_count, const LocalizeNarrator& narrator,
+                         const std::optional<std::size_t>& converged_since, const fs::path& folder) {
+  std::string states;
+  for (std::size_t s = 0; s < kTrackStates; ++s) {
+    if (summary.state_scans[s] == 0) continue;
+    states += " " + std::string(to_string(static_cast<TrackState>(s))) + " " + std::to_string(summary.state_scans[s]);
+  }
+  char line[1024];
+  std::snprintf(line, sizeof(line),
+                "%zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu initial, "
+                "%zu..%zu, %zu final; %s; scans by state:%s; wrote %s and %s",
+                scan_count, summary.updates, run.run_s, summary.update_ms_mean, summary.update_ms_median,
+                lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
+                narrator.verdict(summary, converged_since).c_str(), states.c_str(), (folder / "trajectory.tum").c_str(),
+                (folder / "report.json").c_str());
+  return line;
+}
+
 }  // namespace
 
 int run_localize(int argc, char** argv) {
@@ -105,127 +276,31 @@ int run_localize(int argc, char** argv) {
 
   const LocalizerOptions lo = localizer_options(o);
   if (!o.maybe("output")) throw Error("missing -o OUT (the output folder)");
-  // An earlier run's results are kept unless the user says to replace them.
-  for (const char* earlier : {"report.json", "trajectory.tum"}) {
-    if (!o.flag("overwrite") && fs::exists(fs::path(o.text("output")) / earlier)) {
-      throw Error(one_line(o.text("output")) + " holds an earlier run's results (" + earlier +
-                  "); pass --overwrite to replace them or choose another -o");
-    }
-  }
+  refuse_earlier_results(o);
   StagedOutputFolder output(o.text("output"), {"trajectory.tum", "report.json", "snapshots"});
   const fs::path out_dir = output.staging();
   const std::string map_file = o.text("map");
   const Dataset dataset = open_dataset(o);
-  ScanSelection selection;
-  selection.start = o.count("start");
-  selection.stride = o.count("stride");
-  selection.count = o.count("count");
-  const std::vector<std::size_t> scans = selection.indices(dataset.size());
-  if (scans.empty()) {
-    throw Error("--start " + std::to_string(selection.start) + " selects no scan (the dataset has " +
-                std::to_string(dataset.size()) + ")");
-  }
-  if (lo.filter.motion.type == MotionModelType::kOdometry && !dataset.has_odometry()) {
-    throw Error(dataset.missing_odometry() +
-                ", which motion_model odometry needs (or use --motion_model constant_velocity or diffusion)");
-  }
-  // Empty scan files are caught before any work starts; scans whose points are all NaN or out of range can
-  // only be found while reading them.
-  dataset.check_scans_not_empty(scans);
+  const std::vector<std::size_t> scans = selected_scans(o, dataset, lo);
   // An IMU's gravity, where the dataset has one, stands for the up direction the scan would suggest. Samples are
   // fed as a live IMU would deliver them: up to just past each scan's time.
   const std::vector<ImuSample> imu = lo.use_imu ? dataset.imu() : std::vector<ImuSample>{};
-  std::size_t imu_next = 0;
   const TsdfMap map = load_map(map_file);
   Localizer localizer(map, lo);
   Progress progress("localize", verbosity_of(o), "scans");
   if (!dataset.summary().empty()) progress.note(dataset.summary());
   progress.note(localizer.backend_note());
 
-  std::error_code ec;
-  const std::size_t snapshot_every = o.count("snapshot_every");
-  const fs::path snapshot_dir = out_dir / "snapshots";
-  if (snapshot_every > 0) {
-    fs::create_directories(snapshot_dir, ec);
-    if (ec) throw Error("cannot create " + snapshot_dir.string() + ": " + ec.message());
-    if (lo.initial_pose) write_particle_snapshot(snapshot_dir / "init.bin", localizer.snapshot());
-  }
-  bool reported_init = false;
-  const auto report_initialization = [&] {
-    const InitializationRecord& init = *localizer.initialization();
-    if (!init.global) {
-      progress.note(std::to_string(init.particles) + " particles around the initial pose");
-      return;
-    }
-    std::string heights;
-    for (const GravityCandidate& c : init.candidates) {
-      char buf[32];
-      std::snprintf(buf, sizeof(buf), "%s%.2f", heights.empty() ? "" : ",",
-                    c.has_height ? static_cast<double>(c.height) : NAN);
-      heights += buf;
-    }
-    char line[400];
-    std::snprintf(line, sizeof(line),
-                  "global search: %zu up-direction candidates from the first scan%s (sensor heights %s m); best "
-                  "%zu of %zu hypotheses over %zu free-space voxels kept",
-                  init.candidates.size(), init.gravity_source == "imu" ? " and the IMU" : "",
-                  heights.empty() ? "-" : heights.c_str(), init.particles, init.hypotheses_scored,
-                  init.free_space_voxels);
-    progress.note(line);
-    if (snapshot_every > 0) write_particle_snapshot(snapshot_dir / "init.bin", localizer.snapshot());
-  };
-  if (lo.initial_pose) {
-    report_initialization();
-    reported_init = true;
-  }
+  const Snapshots snapshots = prepare_snapshots(o, out_dir, lo, localizer);
+  // A known initial pose is reported now; a global search only once the first scan has run it.
+  if (lo.initial_pose) report_initialization(progress, localizer, snapshots);
 
-  std::vector<StampedPose> trajectory;
   ReportWriter report_writer(out_dir / "scans.jsonl");
-  std::size_t dropped_total = 0;
   LocalizeNarrator narrator(progress, lo, scans.size());
-  const Stopwatch t_run;
-  for (std::size_t k = 0; k < scans.size(); ++k) {
-    const std::size_t idx = scans[k];
-    const Stopwatch t0;
-    std::size_t dropped = 0;
-    const PointCloud cloud = dataset.load_scan(idx, &dropped);
-    const double load_ms = t0.ms();
-    dropped_total += dropped;
-    const std::optional<Pose> odometry =
-        dataset.has_odometry() ? std::optional<Pose>(dataset.odometry(idx)) : std::nullopt;
-    while (imu_next < imu.size() && imu[imu_next].time <= dataset.time(idx) + kImuLookAhead)
-      localizer.add_imu(imu[imu_next++]);
-    const ScanRecord* record = nullptr;
-    try {
-      record = &localizer.process(dataset.time(idx), cloud.points, odometry, idx);
-    } catch (const Error& e) {
-      throw Error(dataset.scan_path(idx).string() + ": " + e.what());
-    }
-    if (!reported_init) {
-      report_initialization();
-      reported_init = true;
-    }
-    const FilterStep& step = record->step;
-    trajectory.push_back({dataset.time(idx), step.estimate.pose});
+  const LocalizeRun run = localize_scans(dataset, scans, imu, localizer, snapshots, output, progress, report_writer,
+                                         narrator, lo.initial_pose.has_value());
 
-    nlohmann::json j = scan_json(*record);
-    j["scan"] = idx;
-    j["points"]["raw"] = cloud.size() + dropped;
-    j["points"]["dropped_non_finite"] = dropped;
-    j["timings_ms"]["load"] = load_ms;
-    if (snapshot_every > 0 && k % snapshot_every == 0) {
-      char name[32];
-      std::snprintf(name, sizeof(name), "scan_%06zu.bin", idx);
-      write_particle_snapshot(snapshot_dir / name, localizer.snapshot());
-      j["snapshot"] = (output.folder() / "snapshots" / name).string();
-    }
-    report_writer.add(j);
-
-    narrator.scan(k, idx, *record, dropped);
-  }
-  const double run_s = t_run.ms() / 1000.0;
-
-  write_tum(out_dir / "trajectory.tum", trajectory);
+  write_tum(out_dir / "trajectory.tum", run.trajectory);
   const RunSummary summary = localizer.summary();
   nlohmann::json report;
   report["command"] = "localize";
@@ -238,36 +313,12 @@ int run_localize(int argc, char** argv) {
   report["dataset"] = {{"dir", dataset.dir().string()}, {"scans", dataset.size()}, {"selected", scans.size()}};
   report["parameters"] = parameters_json(o);
   report["initialization"] = initialization_json(*localizer.initialization());
-  nlohmann::json summary_entry = summary_json(summary);
-  summary_entry["particles"]["initial"] = lo.filter.initial_particles;
-  summary_entry["dropped_non_finite_points"] = dropped_total;
   const std::optional<std::size_t> converged_since =
       summary.converged_since_index ? std::optional<std::size_t>(scans[*summary.converged_since_index]) : std::nullopt;
-  summary_entry["converged_since_scan"] = converged_since ? nlohmann::json(*converged_since) : nlohmann::json(nullptr);
-  // The filter's own flag, first raised (evaluate's "localized from" is the ground-truth test).
-  summary_entry["first_converged_scan"] =
-      narrator.first_converged_scan() ? nlohmann::json(*narrator.first_converged_scan()) : nlohmann::json(nullptr);
-  summary_entry["converged_since_s"] = summary.converged_since_time
-                                           ? nlohmann::json(*summary.converged_since_time - dataset.time(scans.front()))
-                                           : nlohmann::json(nullptr);
-  summary_entry["wall_s"] = run_s;
-  report["summary"] = summary_entry;
+  report["summary"] = summary_entry_json(summary, lo, run, dataset, scans, narrator, converged_since);
   report_writer.write(report, out_dir / "report.json");
   output.commit();
-  std::string states;
-  for (std::size_t s = 0; s < kTrackStates; ++s) {
-    if (summary.state_scans[s] == 0) continue;
-    states += " " + std::string(to_string(static_cast<TrackState>(s))) + " " + std::to_string(summary.state_scans[s]);
-  }
-  char line[1024];
-  std::snprintf(line, sizeof(line),
-                "%zu scans, %zu filter updates in %.1f s (update mean %.1f ms, median %.1f ms); particles %zu initial, "
-                "%zu..%zu, %zu final; %s; scans by state:%s; wrote %s and %s",
-                scans.size(), summary.updates, run_s, summary.update_ms_mean, summary.update_ms_median,
-                lo.filter.initial_particles, summary.particles_min, summary.particles_max, summary.particles_final,
-                narrator.verdict(summary, converged_since).c_str(), states.c_str(),
-                (output.folder() / "trajectory.tum").c_str(), (output.folder() / "report.json").c_str());
-  progress.summary(line);
+  progress.summary(summary_line(summary, lo, run, scans.size(), narrator, converged_since, output.folder()));
   return 0;
 }
 

@@ -72,6 +72,98 @@ std::string final_error_note(const std::vector<StampedPose>& estimate, const Dat
   return note;
 }
 
+// What the options draw and where, checked before the (possibly large) map is loaded.
+struct RenderSettings {
+  fs::path output;
+  MapRasterOptions raster;
+  MapViewOptions view;
+  std::vector<std::string> particle_files;
+  std::vector<std::string> captions;
+};
+
+RenderSettings render_settings(const Options& o) {
+  RenderSettings r;
+  if (!o.has("output")) throw Error("missing -o OUT.png (the image to write)");
+  r.output = o.text("output");
+  std::string extension = r.output.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  if (extension != ".png") throw Error("the output must be a .png file, got " + r.output.string());
+  check_output_file(r.output, "image");
+  if (o.has("z_min")) r.raster.z_min = static_cast<float>(o.number("z_min"));
+  if (o.has("z_max")) r.raster.z_max = static_cast<float>(o.number("z_max"));
+  if (o.has("slice")) {
+    if (o.has("z_min") || o.has("z_max")) throw Error("--slice draws one height; it excludes --z_min/--z_max");
+    r.raster.slice_z = static_cast<float>(o.number("slice"));
+  }
+  if (o.has("pixel")) {
+    r.view.metres_per_pixel = o.number("pixel");
+    if (!(r.view.metres_per_pixel > 0.0)) throw Error("--pixel must be a positive number of metres");
+  }
+  if (o.has("particles")) r.particle_files = o.list("particles");
+  if (o.has("captions")) {
+    if (r.particle_files.empty()) throw Error("--captions needs --particles (one caption per snapshot)");
+    r.captions = o.list("captions");
+    if (r.captions.size() != r.particle_files.size()) {
+      throw Error("" + std::to_string(r.captions.size()) + " captions for " + std::to_string(r.particle_files.size()) +
+                  " particle snapshots");
+    }
+  }
+  const std::size_t panel_size = o.count("panel_size");
+  r.view.panel_pixels = panel_size != 0               ? static_cast<int>(std::min<std::size_t>(panel_size, 32768))
+                        : r.particle_files.size() > 1 ? 700
+                                                      : 1000;
+  r.view.particle_headings = o.flag("headings");
+  if (o.has("title")) r.view.title = o.text("title");
+  return r;
+}
+
+// The ground truth (if given) under the estimates, each estimate in a colour of its own.
+std::vector<TrajectoryOverlay> trajectory_overlays(const Options& o) {
+  std::vector<TrajectoryOverlay> trajectories;
+  std::optional<Dataset> truth;
+  if (o.has("ground_truth")) {
+    truth = Dataset::open(o.text("ground_truth"));
+    if (!truth->has_poses()) throw Error("--ground_truth " + o.text("ground_truth") + " has no poses.txt");
+    // Wide and translucent, under the estimates: where an estimate leaves the band, it is wrong there.
+    trajectories.push_back({"ground truth", truth->poses(), colors::kBlack, 7.0f, 0.3f, false});
+  }
+  if (o.has("estimate")) {
+    // Colours of the categorical palette without red (the particles') and grey (unobserved space).
+    static constexpr std::size_t kEstimateColors[] = {0, 1, 4, 2, 6, 9, 5, 8};
+    const std::vector<std::string> files = o.list("estimate");
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      const std::vector<StampedPose> stamped = read_tum(files[i]);
+      if (stamped.empty()) throw Error("estimate " + files[i] + " holds no poses");
+      TrajectoryOverlay t;
+      t.label = trajectory_name(files[i]) + (truth ? final_error_note(stamped, *truth) : "");
+      t.color = palette_color(kEstimateColors[i % std::size(kEstimateColors)]);
+      t.width = 2.0f;
+      for (const auto& s : stamped) t.poses.push_back(s.pose);
+      trajectories.push_back(std::move(t));
+    }
+  }
+  return trajectories;
+}
+
+// A panel per particle snapshot, captioned by --captions or the file's name ((a), (b), ... when several).
+std::vector<MapPanel> particle_panels(const std::vector<std::string>& particle_files,
+                                      const std::vector<std::string>& captions) {
+  std::vector<MapPanel> panels;
+  for (std::size_t i = 0; i < particle_files.size(); ++i) {
+    MapPanel panel;
+    panel.particles = read_particle_snapshot(particle_files[i]);
+    panel.caption = captions.empty() ? fs::path(particle_files[i]).stem().string() : captions[i];
+    if (captions.empty() && particle_files.size() > 1) {
+      panel.caption = "(" + std::string(1, static_cast<char>('a' + i % 26)) + ") " + panel.caption;
+    }
+    panel.caption += "  -  " + std::to_string(panel.particles.particles.size()) + " particles";
+    panel.markers = hypothesis_markers(panel.particles);
+    panels.push_back(std::move(panel));
+  }
+  return panels;
+}
+
 }  // namespace
 
 int run_render(int argc, char** argv) {
@@ -98,84 +190,15 @@ int run_render(int argc, char** argv) {
   o.expect_positional(0, "options only, e.g. --map MAP -o OUT.png");
 
   // Option errors are reported before the (possibly large) map is loaded.
-  if (!o.has("output")) throw Error("missing -o OUT.png (the image to write)");
-  const fs::path output = o.text("output");
-  std::string extension = output.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  if (extension != ".png") throw Error("the output must be a .png file, got " + output.string());
-  check_output_file(output, "image");
-  MapRasterOptions raster_options;
-  if (o.has("z_min")) raster_options.z_min = static_cast<float>(o.number("z_min"));
-  if (o.has("z_max")) raster_options.z_max = static_cast<float>(o.number("z_max"));
-  if (o.has("slice")) {
-    if (o.has("z_min") || o.has("z_max")) throw Error("--slice draws one height; it excludes --z_min/--z_max");
-    raster_options.slice_z = static_cast<float>(o.number("slice"));
-  }
-  MapViewOptions view_options;
-  if (o.has("pixel")) {
-    view_options.metres_per_pixel = o.number("pixel");
-    if (!(view_options.metres_per_pixel > 0.0)) throw Error("--pixel must be a positive number of metres");
-  }
-  const std::vector<std::string> particle_files = o.has("particles") ? o.list("particles") : std::vector<std::string>{};
-  std::vector<std::string> captions;
-  if (o.has("captions")) {
-    if (particle_files.empty()) throw Error("--captions needs --particles (one caption per snapshot)");
-    captions = o.list("captions");
-    if (captions.size() != particle_files.size()) {
-      throw Error("" + std::to_string(captions.size()) + " captions for " + std::to_string(particle_files.size()) +
-                  " particle snapshots");
-    }
-  }
-  const std::size_t panel_size = o.count("panel_size");
-  view_options.panel_pixels = panel_size != 0             ? static_cast<int>(std::min<std::size_t>(panel_size, 32768))
-                              : particle_files.size() > 1 ? 700
-                                                          : 1000;
-  view_options.particle_headings = o.flag("headings");
-  if (o.has("title")) view_options.title = o.text("title");
-
+  const RenderSettings r = render_settings(o);
   const TsdfMap map = load_map(o.text("map"));
+  const std::vector<TrajectoryOverlay> trajectories = trajectory_overlays(o);
+  const std::vector<MapPanel> panels = particle_panels(r.particle_files, r.captions);
 
-  std::vector<TrajectoryOverlay> trajectories;
-  std::optional<Dataset> truth;
-  if (o.has("ground_truth")) {
-    truth = Dataset::open(o.text("ground_truth"));
-    if (!truth->has_poses()) throw Error("--ground_truth " + o.text("ground_truth") + " has no poses.txt");
-    // Wide and translucent, under the estimates: where an estimate leaves the band, it is wrong there.
-    trajectories.push_back({"ground truth", truth->poses(), colors::kBlack, 7.0f, 0.3f, false});
-  }
-  if (o.has("estimate")) {
-    // Colours of the categorical palette without red (the particles') and grey (unobserved space).
-    static constexpr std::size_t kEstimateColors[] = {0, 1, 4, 2, 6, 9, 5, 8};
-    const std::vector<std::string> files = o.list("estimate");
-    for (std::size_t i = 0; i < files.size(); ++i) {
-      const std::vector<StampedPose> stamped = read_tum(files[i]);
-      if (stamped.empty()) throw Error("estimate " + files[i] + " holds no poses");
-      TrajectoryOverlay t;
-      t.label = trajectory_name(files[i]) + (truth ? final_error_note(stamped, *truth) : "");
-      t.color = palette_color(kEstimateColors[i % std::size(kEstimateColors)]);
-      t.width = 2.0f;
-      for (const auto& s : stamped) t.poses.push_back(s.pose);
-      trajectories.push_back(std::move(t));
-    }
-  }
-  std::vector<MapPanel> panels;
-  for (std::size_t i = 0; i < particle_files.size(); ++i) {
-    MapPanel panel;
-    panel.particles = read_particle_snapshot(particle_files[i]);
-    panel.caption = captions.empty() ? fs::path(particle_files[i]).stem().string() : captions[i];
-    if (captions.empty() && particle_files.size() > 1) {
-      panel.caption = "(" + std::string(1, static_cast<char>('a' + i % 26)) + ") " + panel.caption;
-    }
-    panel.caption += "  -  " + std::to_string(panel.particles.particles.size()) + " particles";
-    panel.markers = hypothesis_markers(panel.particles);
-    panels.push_back(std::move(panel));
-  }
-
-  const MapRaster raster(map, raster_options);
-  const MapFigure figure = render_map_view(raster, trajectories, panels, view_options);
-  save_png(figure.image, output);
-  std::printf("wrote %s (%d x %d pixels, %.3f m per pixel)\n", output.string().c_str(), figure.image.width(),
+  const MapRaster raster(map, r.raster);
+  const MapFigure figure = render_map_view(raster, trajectories, panels, r.view);
+  save_png(figure.image, r.output);
+  std::printf("wrote %s (%d x %d pixels, %.3f m per pixel)\n", r.output.string().c_str(), figure.image.width(),
               figure.image.height(), figure.panels.front().metres_per_pixel());
   return 0;
 }

@@ -86,81 +86,55 @@ std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> areas_of(const std::str
   return areas;
 }
 
-}  // namespace
+// simulate's options: the scene, the sensor and its carrier, the route and how long, noise, the output.
+std::vector<OptionSpec> simulate_options() {
+  return with_verbosity_options({
+      {"scene", "office|symmetric|warehouse|MESH", "office",
+       "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
+       "a 40 x 25 m warehouse with pallet racks), or a mesh file (STL/PLY/OBJ, metres, z up)"},
+      {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets)"},
+      {"ground_plane", "Z|none", "none",
+       "add a ground slab with its top at height Z under the mesh, for meshes without a floor (avz: 0)"},
+      {"lidar", "vlp16|os0-64|FILE", "vlp16", "LiDAR model, or a beam table file (see docs/simulator.md)"},
+      {"rate", "HZ", "", "sweeps per second [default: vlp16 20 (5-20), os0-64 10 (10 or 20), table's rate]"},
+      {"route", "mapping|test", "test",
+       "mapping: covers the whole floor (to build a map); test: a route over a ramp, chosen by the seed"},
+      {"seed", "N", "1", "route, obstacles and noise; each seed gives another test route"},
+      {"start", "X,Y,YAW", "",
+       "test route: start at X,Y (m) facing YAW (degrees, or e.g. 1.57rad; 0 = +x) instead of where the "
+       "seed says"},
+      {"waypoints", "X,Y;X,Y;...", "",
+       "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
+      {"skip_areas", "X0,Y0,X1,Y1;...", "",
+       "mapping route: never enter these rectangles (m), e.g. rooms the mapping run skipped (quote the ';')"},
+      {"platform", "ground|handheld|drone", "ground",
+       "what carries the sensor: a ground robot, a walking person (sensor 1.5 m high, gait sway), a drone "
+       "(1.0-2.5 m high, tilting with its acceleration, yaw off the path at times)"},
+      {"sensor_tilt", "DEG", "0", "mounting tilt of the LiDAR about its y axis; positive: x axis towards the floor"},
+      {"duration", "S", "", "stop after S simulated seconds [default: test 60 m, mapping the whole route]"},
+      {"length", "M", "", "stop after M metres driven [default: test 60, mapping the whole route]"},
+      {"speed", "MPS", "", "cruise speed; slower in curves [default: ground 0.8, handheld 1.2, drone 1.5]"},
+      {"sensor_height", "M", "",
+       "sensor origin above the floor [default: ground 0.5, handheld 1.5; the drone's height varies]"},
+      {"range_noise", "M", "0.015", "Gaussian range noise (sigma)"},
+      {"dropout", "P", "0", "probability that a return is lost"},
+      {"odom_noise", "F", "0.1", "odometry noise relative to the motion per sweep (0: exact odometry)"},
+      {"scan_spacing", "M", "",
+       "keep a sweep only after the sensor moved M m or turned 30 deg (0: every sweep) "
+       "[default: mapping 0.5, test 0]"},
+      {"obstacles", "N", "0", "unmapped people-sized boxes beside a test route"},
+      {"walkers", "N", "0", "unmapped people walking about a test run, giving way to the robot"},
+      {"motion_distortion", "", "off",
+       "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
+      {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
+      {"bag", "FILE.bag", "",
+       "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
+       "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
+  });
+}
 
-int run_simulate(int argc, char** argv) {
-  Options o("simulate",
-            "tsdf-mcl simulate --scene office|symmetric|warehouse|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
-            "                         [--route mapping|test] [--seed N] [--start X,Y,YAW] [--waypoints X,Y;X,Y;...]\n"
-            "                         [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
-            "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
-            "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
-            "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
-            with_verbosity_options({
-                {"scene", "office|symmetric|warehouse|MESH", "office",
-                 "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
-                 "a 40 x 25 m warehouse with pallet racks), or a mesh file (STL/PLY/OBJ, metres, z up)"},
-                {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets)"},
-                {"ground_plane", "Z|none", "none",
-                 "add a ground slab with its top at height Z under the mesh, for meshes without a floor (avz: 0)"},
-                {"lidar", "vlp16|os0-64|FILE", "vlp16", "LiDAR model, or a beam table file (see docs/simulator.md)"},
-                {"rate", "HZ", "", "sweeps per second [default: vlp16 20 (5-20), os0-64 10 (10 or 20), table's rate]"},
-                {"route", "mapping|test", "test",
-                 "mapping: covers the whole floor (to build a map); test: a route over a ramp, chosen by the seed"},
-                {"seed", "N", "1", "route, obstacles and noise; each seed gives another test route"},
-                {"start", "X,Y,YAW", "",
-                 "test route: start at X,Y (m) facing YAW (degrees, or e.g. 1.57rad; 0 = +x) instead of where the "
-                 "seed says"},
-                {"waypoints", "X,Y;X,Y;...", "",
-                 "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
-                {"skip_areas", "X0,Y0,X1,Y1;...", "",
-                 "mapping route: never enter these rectangles (m), e.g. rooms the mapping run skipped (quote the ';')"},
-                {"platform", "ground|handheld|drone", "ground",
-                 "what carries the sensor: a ground robot, a walking person (sensor 1.5 m high, gait sway), a drone "
-                 "(1.0-2.5 m high, tilting with its acceleration, yaw off the path at times)"},
-                {"sensor_tilt", "DEG", "0",
-                 "mounting tilt of the LiDAR about its y axis; positive: x axis towards the floor"},
-                {"duration", "S", "", "stop after S simulated seconds [default: test 60 m, mapping the whole route]"},
-                {"length", "M", "", "stop after M metres driven [default: test 60, mapping the whole route]"},
-                {"speed", "MPS", "", "cruise speed; slower in curves [default: ground 0.8, handheld 1.2, drone 1.5]"},
-                {"sensor_height", "M", "",
-                 "sensor origin above the floor [default: ground 0.5, handheld 1.5; the drone's height varies]"},
-                {"range_noise", "M", "0.015", "Gaussian range noise (sigma)"},
-                {"dropout", "P", "0", "probability that a return is lost"},
-                {"odom_noise", "F", "0.1", "odometry noise relative to the motion per sweep (0: exact odometry)"},
-                {"scan_spacing", "M", "",
-                 "keep a sweep only after the sensor moved M m or turned 30 deg (0: every sweep) "
-                 "[default: mapping 0.5, test 0]"},
-                {"obstacles", "N", "0", "unmapped people-sized boxes beside a test route"},
-                {"walkers", "N", "0", "unmapped people walking about a test run, giving way to the robot"},
-                {"motion_distortion", "", "off",
-                 "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
-                {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
-                {"bag", "FILE.bag", "",
-                 "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
-                 "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
-            }),
-            argc, argv, 2);
-  if (o.help_requested()) {
-    std::printf("%s", o.help_text().c_str());
-    return 0;
-  }
-  o.expect_positional(0, "options only, e.g. --scene office --lidar vlp16 -o DIR");
-  if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
-
-  sim::SimulationOptions s;
-  s.scene = o.text("scene");
-  s.scene_seed = o.count("scene_seed");
-  if (o.text("ground_plane") != "none") s.ground_plane_z = o.number("ground_plane");
-  s.lidar = o.text("lidar");
-  if (o.has("rate")) {
-    s.rate_hz = o.number("rate");
-    if (!(s.rate_hz > 0.0)) throw Error("--rate must be positive");
-  }
-  const std::string route = o.text("route");
-  if (route != "mapping" && route != "test") throw Error("--route must be mapping or test, not '" + route + "'");
-  s.route = route == "mapping" ? sim::RouteKind::mapping : sim::RouteKind::test;
-  s.seed = o.count("seed");
+// How long the run goes: --duration or --length, each bounded (kMaxDurationS, kMaxLengthM).
+void read_run_extent(const Options& o, sim::SimulationOptions& s) {
   if (o.has("duration") && o.has("length")) throw Error("give --duration or --length, not both");
   if (o.has("duration")) {
     s.duration_s = o.number("duration");
@@ -174,6 +148,24 @@ int run_simulate(int argc, char** argv) {
       throw Error("--length must be in (0, " + format("%g", kMaxLengthM) + "] m, got " + o.text("length"));
     }
   }
+}
+
+// The simulation's options from the command line, checked in the order the options are listed.
+sim::SimulationOptions simulation_options(const Options& o) {
+  sim::SimulationOptions s;
+  s.scene = o.text("scene");
+  s.scene_seed = o.count("scene_seed");
+  if (o.text("ground_plane") != "none") s.ground_plane_z = o.number("ground_plane");
+  s.lidar = o.text("lidar");
+  if (o.has("rate")) {
+    s.rate_hz = o.number("rate");
+    if (!(s.rate_hz > 0.0)) throw Error("--rate must be positive");
+  }
+  const std::string route = o.text("route");
+  if (route != "mapping" && route != "test") throw Error("--route must be mapping or test, not '" + route + "'");
+  s.route = route == "mapping" ? sim::RouteKind::mapping : sim::RouteKind::test;
+  s.seed = o.count("seed");
+  read_run_extent(o, s);
   s.platform = platform_of(o.text("platform"));
   s.robot = sim::RobotModel::of(s.platform);
   if (o.has("speed")) s.robot.speed = o.number("speed");
@@ -194,6 +186,29 @@ int run_simulate(int argc, char** argv) {
   s.obstacles = o.count("obstacles");
   s.walkers = o.count("walkers");
   s.motion_distortion = o.flag("motion_distortion");
+  return s;
+}
+
+}  // namespace
+
+int run_simulate(int argc, char** argv) {
+  Options o("simulate",
+            "tsdf-mcl simulate --scene office|symmetric|warehouse|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+            "                         [--route mapping|test] [--seed N] [--start X,Y,YAW] [--waypoints X,Y;X,Y;...]\n"
+            "                         [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
+            "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
+            "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
+            "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
+            simulate_options(), argc, argv, 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  o.expect_positional(0, "options only, e.g. --scene office --lidar vlp16 -o DIR");
+  if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
+
+  sim::SimulationOptions s = simulation_options(o);
+  const std::string route = o.text("route");
   const std::string out = o.text("output");
   // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
   std::unique_ptr<BagWriter> bag;
