@@ -44,24 +44,23 @@ ParticleFilter::Injection ParticleFilter::plan_injection(double time, const Filt
   return in;
 }
 
-void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection& injection,
-                              const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
-  const std::size_t injected = std::min(injection.count, params_.kld.max_particles);
-  if (injection.candidates > injected) reserve_search(injection.candidates);  // before any view is taken
+ParticleFilter::GroupCounts ParticleFilter::count_groups(std::size_t n, std::size_t budget, std::size_t room) {
   // Particle counts per group: each hypothesis heavy enough to keep at least hypothesis_min_particles, the rest
   // of the budget by share. Lighter hypotheses join the rest and take their chances.
   const std::size_t groups = group_share_.size();
   const std::size_t rest = groups - 1;
-  std::vector<std::size_t> counts(groups, 0);
+  GroupCounts out;
+  std::vector<std::size_t>& counts = out.counts;
+  counts.assign(groups, 0);
   std::vector<bool> kept_group(groups, false);
-  double rest_share = group_share_[rest];
+  out.rest_share = group_share_[rest];
   for (std::size_t g = 0; g < rest; ++g) {
     if (group_share_[g] >= params_.hypothesis_min_weight) {
       kept_group[g] = true;
       counts[g] = std::max(params_.hypothesis_min_particles,
                            static_cast<std::size_t>(std::lround(group_share_[g] * static_cast<double>(budget))));
     } else {
-      rest_share += group_share_[g];
+      out.rest_share += group_share_[g];
     }
   }
   // Every credible hypothesis (one that could compete, convergence.hpp) gets as many particles as the largest:
@@ -81,14 +80,13 @@ void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection
   double rest_weight = 0.0;
   for (std::size_t i = 0; i < n; ++i) rest_weight += group_[i] == static_cast<std::int32_t>(rest) ? weights_[i] : 0.0;
   counts[rest] =
-      rest_weight > 0.0 ? static_cast<std::size_t>(std::lround(rest_share * static_cast<double>(budget))) : 0;
+      rest_weight > 0.0 ? static_cast<std::size_t>(std::lround(out.rest_share * static_cast<double>(budget))) : 0;
   // The challengers' pool: the places outside the heaviest hypotheses keep refining, however light.
   if (rest_weight > 0.0 && params_.challenger_candidates > 0 && ever_concentrated_) {
     counts[rest] = std::max(counts[rest], std::max<std::size_t>(1, params_.challenger_candidates / 200));
   }
-  std::size_t kept = 0;
+  std::size_t& kept = out.kept;
   for (std::size_t c : counts) kept += c;
-  const std::size_t room = params_.kld.max_particles - injected;
   if (kept > room) {  // floors of many hypotheses over the cap: everyone shrinks alike
     const double scale = static_cast<double>(room) / static_cast<double>(kept);
     kept = 0;
@@ -98,9 +96,19 @@ void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection
     counts[kept_group[0] ? 0 : rest] = std::max<std::size_t>(1, std::min(room, budget));
     kept = counts[kept_group[0] ? 0 : rest];
   }
+  return out;
+}
+
+void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection& injection,
+                              const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
+  const std::size_t injected = std::min(injection.count, params_.kld.max_particles);
+  if (injection.candidates > injected) reserve_search(injection.candidates);  // before any view is taken
+  const GroupCounts plan = count_groups(n, budget, params_.kld.max_particles - injected);
+  const std::size_t kept = plan.kept;
 
   Rng rng(params_.seed, 0x2E5A3Bull, step_);
-  group_resampler_.resample(params_.resample_method, weights_.data(), group_.data(), n, counts, rng, ancestors_.data());
+  group_resampler_.resample(params_.resample_method, weights_.data(), group_.data(), n, plan.counts, rng,
+                            ancestors_.data());
   const ParticleArrays src = evaluator_.particles();
   const ParticleArrays dst = evaluator_.spare_particles();
   for (std::size_t j = 0; j < kept; ++j) {
@@ -113,40 +121,51 @@ void ParticleFilter::resample(std::size_t n, std::size_t budget, const Injection
     dst.qy[j] = src.qy[a];
     dst.qz[j] = src.qz[a];
   }
-  if (injected > 0) {
-    if (injection.around) {
-      const ParticleArrays at{dst.x + kept,  dst.y + kept,  dst.z + kept,          dst.qw + kept,      dst.qx + kept,
-                              dst.qy + kept, dst.qz + kept, dst.log_weight + kept, dst.capacity - kept};
-      LocalInitSpread tight;
-      tight.sigma_xy = 0.1;
-      tight.sigma_z = 0.05;
-      tight.sigma_yaw = 0.05;
-      tight.sigma_roll_pitch = 0.02;
-      sample_local(at, injected, *injection.around, tight, params_.seed, step_);
-    } else if (injection.candidates > injected)
-      search(injection.candidates, injected, points, dst, kept);
-    else
-      proposal().sample(dst, kept, kept + injected, params_.seed, step_);
-  }
-  // Each group's share is spread over its new particles. The injected particles carry the injection's share of
-  // the belief, however many they are: many, to cover the map; a small share, while the evidence for a lost
-  // track is weak (a correct track's fit dips now and then).
-  const double injected_share = injected > 0 ? std::clamp(injection.share, 1e-9, 1.0 - 1e-6) : 0.0;
-  std::size_t j = 0;
-  for (std::size_t g = 0; g < groups; ++g) {
-    const double share = g == rest ? rest_share : group_share_[g];
-    const double log_w = std::log(std::max(share, 1e-300) / static_cast<double>(std::max<std::size_t>(counts[g], 1))) +
-                         std::log1p(-injected_share);
-    for (std::size_t c = 0; c < counts[g]; ++c) prior_log_weight_[j++] = log_w;
-  }
-  const double injected_log_w = injected > 0 ? std::log(injected_share / static_cast<double>(injected)) : 0.0;
-  for (std::size_t i = kept; i < kept + injected; ++i) prior_log_weight_[i] = injected_log_w;
+  if (injected > 0) inject(injection, injected, points, dst, kept);
+  set_prior_weights(plan, injected, injection.share);
   evaluator_.swap_particles();
   injected_begin_ = kept;
   injected_end_ = kept + injected;
   count_ = kept + injected;
   updates_since_resample_ = 0;
   step.resampled = true;
+}
+
+void ParticleFilter::inject(const Injection& injection, std::size_t injected,
+                            const std::vector<Eigen::Vector3f>& points, const ParticleArrays& dst, std::size_t offset) {
+  if (injection.around) {
+    const ParticleArrays at{dst.x + offset,  dst.y + offset,          dst.z + offset,
+                            dst.qw + offset, dst.qx + offset,         dst.qy + offset,
+                            dst.qz + offset, dst.log_weight + offset, dst.capacity - offset};
+    LocalInitSpread tight;
+    tight.sigma_xy = 0.1;
+    tight.sigma_z = 0.05;
+    tight.sigma_yaw = 0.05;
+    tight.sigma_roll_pitch = 0.02;
+    sample_local(at, injected, *injection.around, tight, params_.seed, step_);
+  } else if (injection.candidates > injected)
+    search(injection.candidates, injected, points, dst, offset);
+  else
+    proposal().sample(dst, offset, offset + injected, params_.seed, step_);
+}
+
+void ParticleFilter::set_prior_weights(const GroupCounts& plan, std::size_t injected, double injection_share) {
+  // Each group's share is spread over its new particles. The injected particles carry the injection's share of
+  // the belief, however many they are: many, to cover the map; a small share, while the evidence for a lost
+  // track is weak (a correct track's fit dips now and then).
+  const double injected_share = injected > 0 ? std::clamp(injection_share, 1e-9, 1.0 - 1e-6) : 0.0;
+  const std::size_t groups = plan.counts.size();
+  const std::size_t rest = groups - 1;
+  std::size_t j = 0;
+  for (std::size_t g = 0; g < groups; ++g) {
+    const double share = g == rest ? plan.rest_share : group_share_[g];
+    const double log_w =
+        std::log(std::max(share, 1e-300) / static_cast<double>(std::max<std::size_t>(plan.counts[g], 1))) +
+        std::log1p(-injected_share);
+    for (std::size_t c = 0; c < plan.counts[g]; ++c) prior_log_weight_[j++] = log_w;
+  }
+  const double injected_log_w = injected > 0 ? std::log(injected_share / static_cast<double>(injected)) : 0.0;
+  for (std::size_t i = plan.kept; i < plan.kept + injected; ++i) prior_log_weight_[i] = injected_log_w;
 }
 
 }  // namespace tsdf_mcl

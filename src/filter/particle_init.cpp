@@ -32,101 +32,147 @@ void LocalInitSpread::validate() const {
   }
 }
 
+// What the walk of one voxel column reads (fixed for the whole map) and the block masks it fills.
+struct FreeSpaceSampler::ColumnWalk {
+  ColumnWalk(const TsdfMap& m, const GlobalInitOptions& o, int stride, const std::vector<std::int64_t>& slots,
+             std::vector<BlockMask>& block_masks)
+      : map(m),
+        view(m),
+        dims(m.dims_blocks()),
+        coarse(m.coarse_index()),
+        slot(slots),
+        masks(block_masks),
+        step(m.quantization_step()),
+        voxel(m.voxel_size()),
+        clearance(static_cast<float>(std::min<double>(o.min_clearance, m.truncation()))),
+        band(o.use_height_band),
+        min_h(static_cast<float>(o.min_height)),
+        max_h(static_cast<float>(o.max_height)),
+        z0(m.min_block().z() * B),
+        floor_stride(stride) {}
+
+  // Column l (lx + B * ly) of the blocks at (bx, by, any z), bottom to top: sets the bits of its candidate voxels
+  // in their blocks' masks (only this column's bits: the walks of different columns may run in parallel) and
+  // appends its floors (on the floor lattice only) to `floors`.
+  void column(int bx, int by, int l, std::vector<Floor>& floors) const;
+
+  const TsdfMap& map;
+  const kernel::MapView view;
+  const Eigen::Vector3i dims;
+  const std::vector<std::uint32_t>& coarse;
+  const std::vector<std::int64_t>& slot;  // index into masks of each known block in coarse order, else -1
+  std::vector<BlockMask>& masks;
+  const float step, voxel, clearance;
+  const bool band;
+  const float min_h, max_h;
+  const int z0;  // the lowest voxel z
+  const int floor_stride;
+};
+
+void FreeSpaceSampler::ColumnWalk::column(int bx, int by, int l, std::vector<Floor>& floors) const {
+  const int lx = l % B, ly = l / B;
+  const int vx = (map.min_block().x() + bx) * B + lx;
+  const int vy = (map.min_block().y() + by) * B + ly;
+  const bool floor_column = vx % floor_stride == 0 && vy % floor_stride == 0;
+  // The surface height below, from the last voxel inside a surface.
+  float floor_z = -std::numeric_limits<float>::infinity();
+  enum class Last { kUnknown, kSurface, kFree } last = Last::kUnknown;
+  Floor run{vx, vy, 0.0f, 0.0f, false};
+  const auto close_run = [&](float top, bool ceiling) {
+    if (last == Last::kFree && floor_column && std::isfinite(run.z) && top > run.z) {
+      run.top = top;
+      run.ceiling = ceiling;
+      floors.push_back(run);
+    }
+  };
+  for (int bz = 0; bz < dims.z(); ++bz) {
+    const std::size_t cell =
+        static_cast<std::size_t>(bx) +
+        static_cast<std::size_t>(dims.x()) *
+            (static_cast<std::size_t>(by) + static_cast<std::size_t>(dims.y()) * static_cast<std::size_t>(bz));
+    if (coarse[cell] == TsdfMap::kUnknownBlock) {
+      close_run(static_cast<float>(z0 + bz * B) * voxel - 0.5f * voxel, false);
+      last = Last::kUnknown;
+      continue;
+    }
+    BlockMask& mask = masks[static_cast<std::size_t>(slot[cell])];
+    for (int lz = 0; lz < B; ++lz) {
+      const int vz = z0 + bz * B + lz;
+      const std::int32_t q = view.fetch(vx, vy, vz);
+      const float z = static_cast<float>(vz) * voxel;
+      if (q == TsdfMap::kUnknownValue) {
+        close_run(z - 0.5f * voxel, false);
+        last = Last::kUnknown;
+        continue;
+      }
+      const float d = static_cast<float>(q) * step;
+      if (d <= 0.0f) {
+        close_run(z + d, true);  // a ceiling: its surface lies |d| below this voxel's centre
+        floor_z = z - d;         // the surface lies |d| above this voxel's centre (normal pointing up)
+        last = Last::kSurface;
+        continue;
+      }
+      if (last == Last::kSurface) run.z = floor_z;
+      if (last == Last::kUnknown) run.z = std::numeric_limits<float>::quiet_NaN();  // no floor seen under this run
+      last = Last::kFree;
+      if (d < clearance) continue;
+      if (band && !(z - floor_z >= min_h && z - floor_z <= max_h)) continue;
+      const int local = lx + B * (ly + B * lz);
+      mask[static_cast<std::size_t>(local >> 6)] |= 1ull << (local & 63);
+    }
+  }
+  close_run(static_cast<float>(z0 + dims.z() * B) * voxel - 0.5f * voxel, false);
+}
+
 FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& options)
     : map_(&map), options_(options) {
   options_.validate();
   if (map.empty()) throw Error("global initialization: the map is empty");
-  const kernel::MapView view(map);
-  const Eigen::Vector3i dims = map.dims_blocks();
-  const std::vector<std::uint32_t>& coarse = map.coarse_index();
-
   // One mask per known block, filled in parallel by block rows (each row owns its blocks), compacted after.
   // The same column walk finds the floors: a free run of voxels starting on a surface.
+  const std::vector<std::uint32_t>& coarse = map.coarse_index();
   std::vector<std::int64_t> slot(coarse.size(), -1);
   std::size_t known = 0;
   for (std::size_t c = 0; c < coarse.size(); ++c) {
     if (coarse[c] != TsdfMap::kUnknownBlock) slot[c] = static_cast<std::int64_t>(known++);
   }
-  std::vector<std::array<std::uint64_t, 8>> masks(known, std::array<std::uint64_t, 8>{});
-  const float step = map.quantization_step();
-  const float voxel = map.voxel_size();
-  const float clearance = static_cast<float>(std::min<double>(options_.min_clearance, map.truncation()));
-  const bool band = options_.use_height_band;
-  const auto min_h = static_cast<float>(options_.min_height);
-  const auto max_h = static_cast<float>(options_.max_height);
-  const int z0 = map.min_block().z() * B;
+  std::vector<BlockMask> masks(known, BlockMask{});
   // Floors are kept on a lateral lattice no finer than kFloorCell: a 0.05 m map's every column would cost
   // memory without adding hypotheses that differ.
-  floor_stride_ = std::max(1, static_cast<int>(std::lround(kFloorCell / voxel)));
-  std::vector<std::vector<Floor>> row_floors(static_cast<std::size_t>(dims.y()));
+  floor_stride_ = std::max(1, static_cast<int>(std::lround(kFloorCell / map.voxel_size())));
+  walk_columns(ColumnWalk(map, options_, floor_stride_, slot, masks));
+  if (compact_blocks(slot, masks) == 0) {
+    const std::string band = options_.use_height_band
+                                 ? ", height band " + std::to_string(static_cast<float>(options_.min_height)) + ".." +
+                                       std::to_string(static_cast<float>(options_.max_height)) + " m"
+                                 : std::string();
+    throw Error("global initialization: the map has no free space that satisfies the constraints (clearance " +
+                std::to_string(options_.min_clearance) + " m" + band + ")");
+  }
+}
 
+void FreeSpaceSampler::walk_columns(const ColumnWalk& walk) {
+  // Each block row's floors in their own list, joined in row order after: the same floors in the same order
+  // however the rows are scheduled.
+  std::vector<std::vector<Floor>> row_floors(static_cast<std::size_t>(walk.dims.y()));
 #pragma omp parallel for schedule(dynamic)
-  for (int by = 0; by < dims.y(); ++by) {
+  for (int by = 0; by < walk.dims.y(); ++by) {
     std::vector<Floor>& floors = row_floors[static_cast<std::size_t>(by)];
-    for (int bx = 0; bx < dims.x(); ++bx) {
-      for (int l = 0; l < B * B; ++l) {
-        const int lx = l % B, ly = l / B;
-        const int vx = (map.min_block().x() + bx) * B + lx;
-        const int vy = (map.min_block().y() + by) * B + ly;
-        const bool floor_column = vx % floor_stride_ == 0 && vy % floor_stride_ == 0;
-        float floor_z =
-            -std::numeric_limits<float>::infinity();  // surface height below, from the last voxel inside a surface
-        enum class Last { kUnknown, kSurface, kFree } last = Last::kUnknown;
-        Floor run{vx, vy, 0.0f, 0.0f, false};
-        const auto close_run = [&](float top, bool ceiling) {
-          if (last == Last::kFree && floor_column && std::isfinite(run.z) && top > run.z) {
-            run.top = top;
-            run.ceiling = ceiling;
-            floors.push_back(run);
-          }
-        };
-        for (int bz = 0; bz < dims.z(); ++bz) {
-          const std::size_t cell =
-              static_cast<std::size_t>(bx) +
-              static_cast<std::size_t>(dims.x()) *
-                  (static_cast<std::size_t>(by) + static_cast<std::size_t>(dims.y()) * static_cast<std::size_t>(bz));
-          if (coarse[cell] == TsdfMap::kUnknownBlock) {
-            close_run(static_cast<float>(z0 + bz * B) * voxel - 0.5f * voxel, false);
-            last = Last::kUnknown;
-            continue;
-          }
-          std::array<std::uint64_t, 8>& mask = masks[static_cast<std::size_t>(slot[cell])];
-          for (int lz = 0; lz < B; ++lz) {
-            const int vz = z0 + bz * B + lz;
-            const std::int32_t q = view.fetch(vx, vy, vz);
-            const float z = static_cast<float>(vz) * voxel;
-            if (q == TsdfMap::kUnknownValue) {
-              close_run(z - 0.5f * voxel, false);
-              last = Last::kUnknown;
-              continue;
-            }
-            const float d = static_cast<float>(q) * step;
-            if (d <= 0.0f) {
-              close_run(z + d, true);  // a ceiling: its surface lies |d| below this voxel's centre
-              floor_z = z - d;         // the surface lies |d| above this voxel's centre (normal pointing up)
-              last = Last::kSurface;
-              continue;
-            }
-            if (last == Last::kSurface) run.z = floor_z;
-            if (last == Last::kUnknown)
-              run.z = std::numeric_limits<float>::quiet_NaN();  // no floor seen under this run
-            last = Last::kFree;
-            if (d < clearance) continue;
-            if (band && !(z - floor_z >= min_h && z - floor_z <= max_h)) continue;
-            const int local = lx + B * (ly + B * lz);
-            mask[static_cast<std::size_t>(local >> 6)] |= 1ull << (local & 63);
-          }
-        }
-        close_run(static_cast<float>(z0 + dims.z() * B) * voxel - 0.5f * voxel, false);
-      }
+    for (int bx = 0; bx < walk.dims.x(); ++bx) {
+      for (int l = 0; l < B * B; ++l) walk.column(bx, by, l, floors);
     }
   }
   for (const std::vector<Floor>& row : row_floors) floors_.insert(floors_.end(), row.begin(), row.end());
+}
 
+std::uint64_t FreeSpaceSampler::compact_blocks(const std::vector<std::int64_t>& slot,
+                                               const std::vector<BlockMask>& masks) {
+  const TsdfMap& map = *map_;
+  const Eigen::Vector3i dims = map.dims_blocks();
   std::uint64_t total = 0;
-  for (std::size_t c = 0; c < coarse.size(); ++c) {
+  for (std::size_t c = 0; c < slot.size(); ++c) {
     if (slot[c] < 0) continue;
-    const auto& mask = masks[static_cast<std::size_t>(slot[c])];
+    const BlockMask& mask = masks[static_cast<std::size_t>(slot[c])];
     std::uint64_t count = 0;
     for (std::uint64_t word : mask) count += std::bitset<64>(word).count();
     if (count == 0) continue;
@@ -137,12 +183,7 @@ FreeSpaceSampler::FreeSpaceSampler(const TsdfMap& map, const GlobalInitOptions& 
     total += count;
     cumulative_.push_back(total);
   }
-  if (total == 0) {
-    throw Error(
-        "global initialization: the map has no free space that satisfies the constraints (clearance " +
-        std::to_string(options_.min_clearance) + " m" +
-        (band ? ", height band " + std::to_string(min_h) + ".." + std::to_string(max_h) + " m" : std::string()) + ")");
-  }
+  return total;
 }
 
 Eigen::Vector3f FreeSpaceSampler::sample_position(Rng& rng) const {

@@ -29,6 +29,76 @@ double inlier_ratio(const TsdfMap& map, const Pose& pose, const std::vector<Eige
   return static_cast<double>(inliers) / static_cast<double>(points.size());
 }
 
+namespace {
+
+// A ray from the sensor to a scan point's endpoint through the map, in grid units (ray_fit). `direction` is grid
+// units per metre along the ray, so that distances along it count metres.
+struct Ray {
+  const kernel::MapView& view;
+  float voxel;
+  std::int32_t inside_limit;  // this deep inside a surface, the ray has gone through it
+  std::int32_t front_rise;    // a fall along the ray larger than the map's noise
+  Eigen::Vector3f origin;
+  Eigen::Vector3f direction;
+
+  std::int32_t value_at(const Eigen::Vector3f& g) const {
+    const float gg[3] = {g.x(), g.y(), g.z()};
+    return kernel::sample_nearest(view, gg);
+  }
+
+  // The inside of a surface (a negative distance) at `at` was entered from the surface's front if the distance
+  // three voxels nearer the sensor is larger by more than the map's noise (the distance falls along the ray; over
+  // three voxels because a wall's far side holds a flat plateau of its near face's band, where neighbouring voxels
+  // differ by noise either way). From its back it grows along the ray: the far face of a wall the map saw from the
+  // other side only, its band reaching through the wall into a room the mapping run never entered. A LiDAR never
+  // sees a face from behind, so only a front entry is evidence: at a wrong pose a ray passing into a wall crosses
+  // the face the map holds.
+  bool entered_from_front(const Eigen::Vector3f& at, std::int32_t v) const {
+    const std::int32_t nearer = value_at(at - 3.0f * voxel * direction);
+    return nearer != TsdfMap::kUnknownValue && nearer > v + front_rise;
+  }
+
+  // Whether the ray goes through a surface it entered from the front before `stop` (m). Sets *met_surface if it
+  // met the inside of one on its way: then an endpoint in unknown space lies behind a surface the map has, and is
+  // a miss, not unobserved.
+  bool passes_through(float stop, bool* met_surface) const {
+    // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
+    // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
+    bool inside = false;      // in a negative region since the last sample
+    bool from_front = false;  // ... which the ray entered from the front
+    for (float s = 0.0f; s < stop;) {
+      const Eigen::Vector3f at = origin + s * direction;
+      const std::int32_t v = value_at(at);
+      if (v == TsdfMap::kUnknownValue || v >= 0) {
+        inside = false;
+        s += v == TsdfMap::kUnknownValue ? voxel : std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
+        continue;
+      }
+      if (!inside) from_front = entered_from_front(at, v);
+      inside = true;
+      if (from_front) {
+        *met_surface = true;
+        if (v <= inside_limit) return true;
+      }
+      s += voxel;
+    }
+    return false;
+  }
+
+  // Whether a surface entered from its front lies just in front of an endpoint in unknown space: the last
+  // end_margin before it, voxel by voxel backwards, up to the first known voxel.
+  bool surface_before_end(const Eigen::Vector3f& end, float length, float end_margin) const {
+    for (float s = voxel; s <= end_margin + 0.5f * voxel && s < length; s += voxel) {
+      const Eigen::Vector3f at = end - s * direction;
+      const std::int32_t v = value_at(at);
+      if (v != TsdfMap::kUnknownValue) return v < 0 && entered_from_front(at, v);
+    }
+    return false;
+  }
+};
+
+}  // namespace
+
 RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, float max_distance,
                float end_margin, std::vector<std::uint8_t>* observed) {
   RayFit fit;
@@ -46,10 +116,6 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
   const Eigen::Vector3f tf = pose.translation().cast<float>();
   const float t[3] = {tf.x(), tf.y(), tf.z()};
   const Eigen::Vector3f origin = tf * view.inv_voxel;  // grid units
-  const auto value_at = [&](const Eigen::Vector3f& g) {
-    const float gg[3] = {g.x(), g.y(), g.z()};
-    return kernel::sample_nearest(view, gg);
-  };
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3f& p = points[i];
     // The endpoint as the sensor update computes it, so that "inlier" means what the likelihood saw.
@@ -58,69 +124,22 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     const Eigen::Vector3f end(g[0], g[1], g[2]);
     const std::int32_t at_end = kernel::sample_nearest(view, g);
     const float length = p.norm();
-    // Grid units per metre along the ray, so that `s` below counts metres.
+    // Grid units per metre along the ray.
     const Eigen::Vector3f direction =
         length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
-    // The inside of a surface (a negative distance) at `at` was entered from the surface's front if the distance
-    // three voxels nearer the sensor is larger by more than the map's noise (the distance falls along the ray; over
-    // three voxels because a wall's far side holds a flat plateau of its near face's band, where neighbouring voxels
-    // differ by noise either way). From its back it grows along the ray: the far face of a wall the map saw from the
-    // other side only, its band reaching through the wall into a room the mapping run never entered. A LiDAR never
-    // sees a face from behind, so only a front entry is evidence: at a wrong pose a ray passing into a wall crosses
-    // the face the map holds.
-    const auto entered_from_front = [&](const Eigen::Vector3f& at, std::int32_t v) {
-      const std::int32_t nearer = value_at(at - 3.0f * voxel * direction);
-      return nearer != TsdfMap::kUnknownValue && nearer > v + front_rise;
-    };
-    // Whether the ray met the inside of a surface on its way: then an endpoint in unknown space lies behind a
-    // surface the map has, and is a miss, not unobserved.
-    bool met_surface = false;
-    bool through = false;
-    if (length > end_margin) {
-      // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
-      // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
-      const float stop = length - end_margin;
-      bool inside = false;      // in a negative region since the last sample
-      bool from_front = false;  // ... which the ray entered from the front
-      for (float s = 0.0f; s < stop;) {
-        const Eigen::Vector3f at = origin + s * direction;
-        const std::int32_t v = value_at(at);
-        if (v == TsdfMap::kUnknownValue || v >= 0) {
-          inside = false;
-          s += v == TsdfMap::kUnknownValue ? voxel : std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
-          continue;
-        }
-        if (!inside) from_front = entered_from_front(at, v);
-        inside = true;
-        if (from_front) {
-          met_surface = true;
-          if (v <= inside_limit) {
-            through = true;
-            break;
-          }
-        }
-        s += voxel;
-      }
-    }
+    const Ray ray{view, voxel, inside_limit, front_rise, origin, direction};
+    bool met_surface = false;  // the ray met the inside of a surface on its way (Ray::passes_through)
+    const bool through = length > end_margin && ray.passes_through(length - end_margin, &met_surface);
     if (through) ++fit.see_through;
     bool evidence = through;
     if (at_end != TsdfMap::kUnknownValue) {
-      // An endpoint inside a surface reached from its back is unobserved (see above), however near the face: it
-      // lies on the far face of a wall, which the map does not hold. One in free space is evidence.
-      evidence = evidence || met_surface || at_end >= 0 || length <= 3.0f * voxel || entered_from_front(end, at_end);
+      // An endpoint inside a surface reached from its back is unobserved (Ray::entered_from_front), however near
+      // the face: it lies on the far face of a wall, which the map does not hold. One in free space is evidence.
+      evidence =
+          evidence || met_surface || at_end >= 0 || length <= 3.0f * voxel || ray.entered_from_front(end, at_end);
       if (!evidence) ++fit.back_faces;
     } else {
-      // The last end_margin before the endpoint, voxel by voxel backwards: a surface just in front of it, entered
-      // from its front.
-      for (float s = voxel; s <= end_margin + 0.5f * voxel && s < length; s += voxel) {
-        const Eigen::Vector3f at = end - s * direction;
-        const std::int32_t v = value_at(at);
-        if (v != TsdfMap::kUnknownValue) {
-          met_surface = met_surface || (v < 0 && entered_from_front(at, v));
-          break;
-        }
-      }
-      evidence = evidence || met_surface;
+      evidence = evidence || met_surface || ray.surface_before_end(end, length, end_margin);
     }
     if (!evidence) continue;
     ++fit.observed;

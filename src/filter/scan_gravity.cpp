@@ -282,6 +282,59 @@ void bounding_levels(const std::vector<Eigen::Vector3f>& points, const Eigen::Ve
   }
 }
 
+// Peaks of the normals' directions: greedy maxima of the parallel support, each suppressing its
+// neighbourhood.
+std::vector<Eigen::Vector3d> normal_peaks(const std::vector<Eigen::Vector3d>& normals, double tolerance) {
+  const double cos_tol = std::cos(tolerance);
+  // Voting needs no more than ~1000 normals (evenly strided); the refinement (candidate_axes) uses all of them.
+  const std::vector<Eigen::Vector3d> directions = hemisphere_directions(1500);
+  const std::size_t stride = std::max<std::size_t>(1, normals.size() / 1000);
+  std::vector<double> support(directions.size(), 0.0);
+  for (std::size_t d = 0; d < directions.size(); ++d) {
+    for (std::size_t i = 0; i < normals.size(); i += stride) {
+      support[d] += std::abs(normals[i].dot(directions[d])) >= cos_tol ? 1.0 : 0.0;
+    }
+  }
+  std::vector<Eigen::Vector3d> peaks;
+  for (int k = 0; k < 6; ++k) {
+    const auto best = static_cast<std::size_t>(std::max_element(support.begin(), support.end()) - support.begin());
+    if (support[best] < 0.02 * static_cast<double>((normals.size() + stride - 1) / stride)) break;
+    peaks.push_back(directions[best]);
+    for (std::size_t d = 0; d < directions.size(); ++d) {
+      if (std::abs(directions[d].dot(directions[best])) >= std::cos(2.0 * tolerance)) support[d] = 0.0;
+    }
+  }
+  return peaks;
+}
+
+// Candidate axes, best supported first: the peaks (floors, ceilings, walls) and the normals of pairs of
+// near-orthogonal peaks (the up axis of a scan that sees walls in two directions and little floor), each refined
+// on all normals; near-duplicates keep the better one.
+std::vector<Axis> candidate_axes(const std::vector<Eigen::Vector3d>& peaks, const std::vector<Eigen::Vector3d>& normals,
+                                 double tolerance) {
+  std::vector<Eigen::Vector3d> seeds = peaks;
+  for (std::size_t a = 0; a < peaks.size(); ++a) {
+    for (std::size_t b = a + 1; b < peaks.size(); ++b) {
+      if (std::abs(peaks[a].dot(peaks[b])) < 0.5) seeds.push_back(peaks[a].cross(peaks[b]).normalized());
+    }
+  }
+  std::vector<Axis> axes;
+  for (const Eigen::Vector3d& seed : seeds) {
+    const Axis a = refine_axis(seed, normals, tolerance);
+    if (a.score() < 3.0) continue;
+    bool duplicate = false;
+    for (Axis& other : axes) {
+      if (std::abs(other.u.dot(a.u)) >= std::cos(2.0 * tolerance)) {
+        duplicate = true;
+        if (a.score() > other.score()) other = a;
+      }
+    }
+    if (!duplicate) axes.push_back(a);
+  }
+  std::stable_sort(axes.begin(), axes.end(), [](const Axis& a, const Axis& b) { return a.score() > b.score(); });
+  return axes;
+}
+
 }  // namespace
 
 void GravityEstimation::validate() const {
@@ -311,7 +364,6 @@ GravityEstimate estimate_gravity(const std::vector<Eigen::Vector3f>& points, con
   }
   if (patches.size() < o.min_planar_patches) return result;
   const double tolerance = o.tolerance_deg * kDeg;
-  const double cos_tol = std::cos(tolerance);
   std::vector<Eigen::Vector3d> normals;
   normals.reserve(patches.size());
   for (const Patch& p : patches) normals.push_back(p.normal);
@@ -334,48 +386,7 @@ GravityEstimate estimate_gravity(const std::vector<Eigen::Vector3f>& points, con
     return result;
   }
 
-  // Peaks of the normals' directions: greedy maxima of the parallel support, each suppressing its
-  // neighbourhood.
-  // Voting needs no more than ~1000 normals (evenly strided); the refinement below uses all of them.
-  const std::vector<Eigen::Vector3d> directions = hemisphere_directions(1500);
-  const std::size_t stride = std::max<std::size_t>(1, normals.size() / 1000);
-  std::vector<double> support(directions.size(), 0.0);
-  for (std::size_t d = 0; d < directions.size(); ++d) {
-    for (std::size_t i = 0; i < normals.size(); i += stride) {
-      support[d] += std::abs(normals[i].dot(directions[d])) >= cos_tol ? 1.0 : 0.0;
-    }
-  }
-  std::vector<Eigen::Vector3d> peaks;
-  for (int k = 0; k < 6; ++k) {
-    const auto best = static_cast<std::size_t>(std::max_element(support.begin(), support.end()) - support.begin());
-    if (support[best] < 0.02 * static_cast<double>((normals.size() + stride - 1) / stride)) break;
-    peaks.push_back(directions[best]);
-    for (std::size_t d = 0; d < directions.size(); ++d) {
-      if (std::abs(directions[d].dot(directions[best])) >= std::cos(2.0 * tolerance)) support[d] = 0.0;
-    }
-  }
-  // Candidate axes: the peaks (floors, ceilings, walls) and the normals of pairs of near-orthogonal peaks
-  // (the up axis of a scan that sees walls in two directions and little floor).
-  std::vector<Eigen::Vector3d> seeds = peaks;
-  for (std::size_t a = 0; a < peaks.size(); ++a) {
-    for (std::size_t b = a + 1; b < peaks.size(); ++b) {
-      if (std::abs(peaks[a].dot(peaks[b])) < 0.5) seeds.push_back(peaks[a].cross(peaks[b]).normalized());
-    }
-  }
-  std::vector<Axis> axes;
-  for (const Eigen::Vector3d& seed : seeds) {
-    const Axis a = refine_axis(seed, normals, tolerance);
-    if (a.score() < 3.0) continue;
-    bool duplicate = false;
-    for (Axis& other : axes) {
-      if (std::abs(other.u.dot(a.u)) >= std::cos(2.0 * tolerance)) {
-        duplicate = true;
-        if (a.score() > other.score()) other = a;
-      }
-    }
-    if (!duplicate) axes.push_back(a);
-  }
-  std::stable_sort(axes.begin(), axes.end(), [](const Axis& a, const Axis& b) { return a.score() > b.score(); });
+  const std::vector<Axis> axes = candidate_axes(normal_peaks(normals, tolerance), normals, tolerance);
   if (axes.empty()) return result;
   const double best = axes.front().score();
   for (std::size_t k = 0; k < axes.size() && k < o.max_axes; ++k) {

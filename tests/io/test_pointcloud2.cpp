@@ -207,88 +207,94 @@ TEST(PointCloud2, EmptyCloudDecodesToNoPoints) {
   EXPECT_EQ(stats.points, 0u);
 }
 
-// Every lie of a size field is one clear sentence, before anything is read.
-TEST(PointCloud2, HostileLayoutsAreErrors) {
+// Every lie of a size field is one clear sentence, before anything is read: decoding 120 bytes with layout `l`
+// fails with one line that names the cloud and holds `words`.
+void expect_hostile(const PointCloud2Layout& l, const std::string& words) {
   const std::vector<std::uint8_t> data(120, 0);
-  struct Case {
-    PointCloud2Layout layout;
-    std::string words;
-  };
-  std::vector<Case> cases;
+  const std::string e = error_of(l, data);
+  EXPECT_NE(e.find(words), std::string::npos) << "'" << e << "' lacks '" << words << "'";
+  EXPECT_EQ(e.rfind("test cloud: ", 0), 0u) << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+}
+
+// Sizes and counts that lie: data too short, rows overlapping, more points than the limit.
+TEST(PointCloud2, HostileSizesAreErrors) {
   {
     PointCloud2Layout l = xyz_float32(11);  // 132 bytes needed, 120 there
-    cases.push_back({l, "data holds 120 bytes"});
+    expect_hostile(l, "data holds 120 bytes");
   }
   {
     PointCloud2Layout l = xyz_float32(2, 3);
     l.row_step = 60;  // rows 60 bytes apart: 2 * 60 + 24 = 144 > 120
-    cases.push_back({l, "need 144"});
+    expect_hostile(l, "need 144");
   }
   {
     PointCloud2Layout l = xyz_float32(3, 2);
     l.row_step = 20;  // less than a row of points
-    cases.push_back({l, "row_step 20 is less than width 3 * point_step 12"});
+    expect_hostile(l, "row_step 20 is less than width 3 * point_step 12");
   }
   {
     PointCloud2Layout l = xyz_float32(0xFFFFFFFFu, 0xFFFFFFFFu);  // 2^64 - 2^33 + 1 points
-    cases.push_back({l, "more than the limit"});
+    expect_hostile(l, "more than the limit");
   }
   {
     PointCloud2Layout l = xyz_float32(1u << 24, 2);
-    cases.push_back({l, "more than the limit of 16777216 points"});
+    expect_hostile(l, "more than the limit of 16777216 points");
   }
   {
     PointCloud2Layout l = xyz_float32(5);
     l.point_step = 0xFFFFFFFFu;
     l.row_step = 0xFFFFFFFFu;
-    cases.push_back({l, "data holds 120 bytes"});
+    expect_hostile(l, "data holds 120 bytes");
   }
+}
+
+// Fields placed outside the point, or no point at all.
+TEST(PointCloud2, HostileFieldPlacesAreErrors) {
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields[2].offset = 10;  // z reaches past point_step 12
-    cases.push_back({l, "field 'z' (FLOAT32 at offset 10) does not fit in point_step 12"});
+    expect_hostile(l, "field 'z' (FLOAT32 at offset 10) does not fit in point_step 12");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields[1].offset = 0xFFFFFFFEu;
-    cases.push_back({l, "field 'y'"});
+    expect_hostile(l, "field 'y'");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.point_step = 0;
-    cases.push_back({l, "point_step 0"});
+    expect_hostile(l, "point_step 0");
   }
+}
+
+// Fields missing, of the wrong or an unknown type, or twice.
+TEST(PointCloud2, HostileFieldListsAreErrors) {
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields.pop_back();
     l.fields.push_back({"intensity", 8, kPointFloat32, 1});
-    cases.push_back({l, "has no field z (its fields: x y intensity)"});
+    expect_hostile(l, "has no field z (its fields: x y intensity)");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields.clear();
-    cases.push_back({l, "has no field x, y, z (its fields: none)"});
+    expect_hostile(l, "has no field x, y, z (its fields: none)");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields[0].datatype = kPointInt16;
-    cases.push_back({l, "field 'x' is INT16 (x, y and z must be FLOAT32 or FLOAT64)"});
+    expect_hostile(l, "field 'x' is INT16 (x, y and z must be FLOAT32 or FLOAT64)");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields[0].datatype = 9;
-    cases.push_back({l, "datatype 9"});
+    expect_hostile(l, "datatype 9");
   }
   {
     PointCloud2Layout l = xyz_float32(1);
     l.fields.push_back({"x", 0, kPointFloat32, 1});
-    cases.push_back({l, "two fields named 'x'"});
-  }
-  for (const Case& c : cases) {
-    const std::string e = error_of(c.layout, data);
-    EXPECT_NE(e.find(c.words), std::string::npos) << "'" << e << "' lacks '" << c.words << "'";
-    EXPECT_EQ(e.rfind("test cloud: ", 0), 0u) << e;
-    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+    expect_hostile(l, "two fields named 'x'");
   }
 }
 

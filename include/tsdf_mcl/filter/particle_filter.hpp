@@ -285,8 +285,22 @@ class ParticleFilter {
     std::optional<Pose> around;  // drawn near this pose (the track), not from the proposal
   };
   Injection plan_injection(double time, const FilterStep& step) const;
+  // The next generation: `budget` particles drawn per hypothesis (count_groups) and the injection's after them.
   void resample(std::size_t n, std::size_t budget, const Injection& injection,
                 const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // Particles per group of the next generation (the last group: the rest) and the share the rest carries.
+  struct GroupCounts {
+    std::vector<std::size_t> counts;
+    double rest_share = 0.0;  // the rest's share of the belief, with the hypotheses too light to keep
+    std::size_t kept = 0;     // all counts together, at most `room`
+  };
+  // Moves the particles of hypotheses too light to keep to the rest (group_).
+  GroupCounts count_groups(std::size_t n, std::size_t budget, std::size_t room);
+  // The injection's `injected` particles into dst[offset, offset + injected).
+  void inject(const Injection& injection, std::size_t injected, const std::vector<Eigen::Vector3f>& points,
+              const ParticleArrays& dst, std::size_t offset);
+  // prior_log_weight_ of the next generation: the kept particles', then the injected ones'.
+  void set_prior_weights(const GroupCounts& plan, std::size_t injected, double injection_share);
   // A screened search: `candidates` hypotheses from the proposal, block by block (global_proposal.hpp), each
   // block scored with a wide likelihood on the scan points that tell its hypotheses apart; the best `keep`,
   // shared between the blocks by their mixture weights, go to dst[offset, offset + keep). The active particle

@@ -75,11 +75,18 @@ class FreeSpaceSampler {
   // A position in the free run of a random floor at the height `place` picks (NaN: none), free where it lands.
   template <typename Place>
   bool sample_in_run(Rng& rng, Place&& place, Eigen::Vector3f* position) const;
+  using BlockMask = std::array<std::uint64_t, 8>;  // a block's voxels by local index, a bit each
+  // The constructor's stages. The walk of every voxel column (particle_init.cpp): the candidate voxels into the
+  // masks of the known blocks, the floors into floors_.
+  struct ColumnWalk;
+  void walk_columns(const ColumnWalk& walk);
+  // The blocks with candidates into block_, mask_ and cumulative_; returns the number of candidates.
+  std::uint64_t compact_blocks(const std::vector<std::int64_t>& slot, const std::vector<BlockMask>& masks);
   const TsdfMap* map_;
   GlobalInitOptions options_;
-  std::vector<Eigen::Vector3i> block_;              // block coordinates
-  std::vector<std::array<std::uint64_t, 8>> mask_;  // candidate voxels by local index
-  std::vector<std::uint64_t> cumulative_;           // candidates in blocks 0..b inclusive
+  std::vector<Eigen::Vector3i> block_;     // block coordinates
+  std::vector<BlockMask> mask_;            // candidate voxels
+  std::vector<std::uint64_t> cumulative_;  // candidates in blocks 0..b inclusive
   std::vector<Floor> floors_;
   int floor_stride_ = 1;  // voxels between floor columns
 };
