@@ -125,6 +125,8 @@ void ParticleFilter::start(std::size_t count) {
   trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
+  covered_streak_ = 0;
+  mapped_track_ = false;
   implausible_streak_ = 0;
   last_challenge_time_ = -1e300;
   challengers_weighed_ = false;
@@ -237,6 +239,8 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
     convergence_.restart_after_wrong_lock();
     challengers_weighed_ = false;
     last_challenge_time_ = -1e300;
+    covered_streak_ = 0;
+    mapped_track_ = false;
   }
   step.state = state_ = classify(step);
   step.estimate = estimate_;

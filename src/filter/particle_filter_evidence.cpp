@@ -36,13 +36,97 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
   step.ess = t.ess;
 }
 
+namespace {
+
+// Each hypothesis's place: its pose refined onto the map, its points' log-likelihoods there and their map evidence.
+struct Places {
+  std::vector<Pose> pose;
+  std::vector<double> total;  // the points' log-likelihoods summed
+  std::vector<std::vector<double>> point_log;
+  std::vector<std::vector<std::uint8_t>> observed;
+  std::vector<RayFit> fit;
+  std::size_t reference = 0;  // the best-fitting place
+};
+
+// Each group's heaviest particle (n where a group has none).
+std::vector<std::size_t> heaviest_particles(const std::int32_t* group, const double* w, std::size_t n,
+                                            std::size_t groups) {
+  std::vector<std::size_t> heaviest(groups, n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto g = static_cast<std::size_t>(group[i]);
+    if (g < groups && (heaviest[g] == n || w[i] > w[heaviest[g]])) heaviest[g] = i;
+  }
+  return heaviest;
+}
+
+// Refines every hypothesis onto the map from its mean pose and from its heaviest particle: a mode's mean sits off
+// its place while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps
+// from there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
+// The better start wins (ties: the mean).
+Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
+                     const std::vector<std::size_t>& heaviest, std::size_t n,
+                     const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance) {
+  struct Start {
+    std::size_t hypothesis;
+    Pose pose;
+    double total;
+    std::vector<double> log;
+  };
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  std::vector<Start> starts;
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    starts.push_back(Start{r, h[r].pose, kNone, {}});
+    if (heaviest[r] < n) {
+      Pose best = Pose::Identity();
+      best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
+      best.translation() = particles.position(heaviest[r]).cast<double>();
+      starts.push_back(Start{r, best, kNone, {}});
+    }
+  }
+  // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
+  // of two starts each keep sixteen cores busy.
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
+    Start& s = starts[static_cast<std::size_t>(ss)];
+    s.pose = refine_pose(map, s.pose, points);
+    const Eigen::Quaternionf q(Eigen::Quaterniond(s.pose.linear()).cast<float>());
+    point_log_likelihoods(map, plain, s.pose.translation().cast<float>(), q, points, s.log);
+    s.total = 0.0;
+    for (double l : s.log) s.total += l;
+  }
+  Places places;
+  places.pose.resize(h.size());
+  places.total.assign(h.size(), kNone);
+  places.point_log.resize(h.size());
+  places.observed.resize(h.size());
+  places.fit.resize(h.size());
+  for (Start& s : starts) {
+    if (s.total > places.total[s.hypothesis]) {
+      places.total[s.hypothesis] = s.total;
+      places.pose[s.hypothesis] = s.pose;
+      places.point_log[s.hypothesis].swap(s.log);
+    }
+  }
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
+    const auto r = static_cast<std::size_t>(rr);
+    places.fit[r] = ray_fit(map, places.pose[r], points, inlier_distance, 0.4f, &places.observed[r]);
+  }
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    if (places.total[r] > places.total[places.reference]) places.reference = r;
+  }
+  return places;
+}
+
+}  // namespace
+
 void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
   estimate_ = estimator_.estimate(evaluator_.particles(), weights_.data(), n);
   std::vector<Hypothesis>& h = estimate_.hypotheses;
-  const auto k = static_cast<std::int32_t>(h.size());
+  const auto rest = static_cast<std::int32_t>(h.size());  // the group of the particles in no hypothesis
   for (std::size_t i = 0; i < n; ++i) {
     const std::int32_t g = estimator_.hypothesis_of(i);
-    group_[i] = g >= 0 ? g : k;
+    group_[i] = g >= 0 ? g : rest;
   }
   // Each hypothesis's evidence: the mean log-likelihood per point at its mean pose refined onto the map (the
   // place's fit, not its particles' alignment); the refined pose is the hypothesis's estimate. The rest
@@ -52,65 +136,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
-  std::vector<double> evidence(h.size() + 1, 0.0);
-  std::vector<Pose> refined(h.size());
-  std::vector<std::vector<double>> point_log(h.size());
-  std::vector<std::vector<std::uint8_t>> observed(h.size());
-  std::vector<RayFit> fits(h.size());
-  std::size_t reference = 0;  // the best-fitting hypothesis
-  std::vector<double> totals(h.size(), 0.0);
-  // Each hypothesis's heaviest particle: a second start for the refinement. A mode's mean sits off its place
-  // while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps from
-  // there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
-  std::vector<std::size_t> heaviest(h.size(), n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto g = static_cast<std::size_t>(group_[i]);
-    if (g < h.size() && (heaviest[g] == n || weights_[i] > weights_[heaviest[g]])) heaviest[g] = i;
-  }
-  const ParticleArrays particles = evaluator_.particles();
-  // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
-  // of two starts each keep sixteen cores busy; the better start of each hypothesis wins (ties: the mean).
-  struct Start {
-    std::size_t hypothesis;
-    Pose pose;
-    double total = -std::numeric_limits<double>::infinity();
-    std::vector<double> log;
-  };
-  std::vector<Start> starts;
-  for (std::size_t r = 0; r < h.size(); ++r) {
-    starts.push_back(Start{r, h[r].pose, -std::numeric_limits<double>::infinity(), {}});
-    if (heaviest[r] < n) {
-      Pose best = Pose::Identity();
-      best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
-      best.translation() = particles.position(heaviest[r]).cast<double>();
-      starts.push_back(Start{r, best, -std::numeric_limits<double>::infinity(), {}});
-    }
-  }
-#pragma omp parallel for schedule(dynamic)
-  for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
-    Start& s = starts[static_cast<std::size_t>(ss)];
-    s.pose = refine_pose(map_, s.pose, points);
-    const Eigen::Quaternionf q(Eigen::Quaterniond(s.pose.linear()).cast<float>());
-    point_log_likelihoods(map_, plain, s.pose.translation().cast<float>(), q, points, s.log);
-    s.total = 0.0;
-    for (double l : s.log) s.total += l;
-  }
-  for (std::size_t r = 0; r < h.size(); ++r) totals[r] = -std::numeric_limits<double>::infinity();
-  for (Start& s : starts) {
-    if (s.total > totals[s.hypothesis]) {
-      totals[s.hypothesis] = s.total;
-      refined[s.hypothesis] = s.pose;
-      point_log[s.hypothesis].swap(s.log);
-    }
-  }
-#pragma omp parallel for schedule(dynamic)
-  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
-    const auto r = static_cast<std::size_t>(rr);
-    fits[r] = ray_fit(map_, refined[r], points, params_.inlier_distance, 0.4f, &observed[r]);
-  }
-  for (std::size_t r = 0; r < h.size(); ++r) {
-    if (totals[r] > totals[reference]) reference = r;
-  }
+  Places places =
+      refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
+                    points, plain, params_.inlier_distance);
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
@@ -118,24 +146,28 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   // scans, those differences were a random walk that decided between identical places (within a few hundred
   // scans in the symmetric test building). A feature only one of them has (a cabinet) still moves its points by
   // the whole hit-versus-miss ratio of the model.
-  const double dead_band = evidence_dead_band();
   // Only points with map evidence under both places count (scan_fit.hpp: paired_evidence): a point in a room the
   // map never observed must not make the mapped look-alike of that room the better place.
+  // And where a place that fits its observed points well lies mostly in space the map never observed, after the
+  // belief has followed a place the map covers (mapped_track_), the pair's evidence waits: what the map observes
+  // there is the frontier of a room the mapping run skipped (surfaces seen once, at grazing angles, through a
+  // door), which fits any scan worse than a mapped look-alike does, whatever the place. The shares stay as they
+  // were until the map covers most of the scan at both places again. (A place that lies mostly off the map from
+  // the start, or that fits its observed points badly, is judged as before: a global search must still drop it.)
+  const double dead_band = evidence_dead_band();
+  const std::size_t ref = places.reference;
+  const auto frontier = [&](std::size_t q) {
+    return mapped_track_ && places.fit[q].coverage() < kMostOfTheScan &&
+           places.fit[q].inlier_ratio() >= kFrontierMinInliers;
+  };
+  std::vector<double> evidence(h.size() + 1, 0.0);
   for (std::size_t r = 0; r < h.size(); ++r) {
-    const PairedEvidence paired =
-        paired_evidence(point_log[r], observed[r], point_log[reference], observed[reference], dead_band);
-    evidence[r] = (totals[reference] + paired.sum) / count;
+    const PairedEvidence paired = paired_evidence(places.point_log[r], places.observed[r], places.point_log[ref],
+                                                  places.observed[ref], dead_band);
+    evidence[r] = (places.total[ref] + (frontier(r) || frontier(ref) ? 0.0 : paired.sum)) / count;
   }
-  {
-    const ParticleArrays p = evaluator_.particles();
-    const double to_plain = 1.0 / params_.sensor.weight_exponent;
-    for (std::size_t i = 0; i < n; ++i) weights_[i] = prior_log_weight_[i] + to_plain * p.log_weight[i];
-    const std::vector<double> with = group_log_sums(weights_.data(), group_.data(), n, h.size() + 1);
-    const std::vector<double> without = group_log_sums(prior_log_weight_.data(), group_.data(), n, h.size() + 1);
-    if (std::isfinite(with[h.size()]) && std::isfinite(without[h.size()])) {
-      evidence[h.size()] = (with[h.size()] - without[h.size()]) / count;
-    }
-  }
+  const double rest_per_point = rest_evidence(n, h.size() + 1, count);
+  if (!std::isnan(rest_per_point)) evidence[h.size()] = rest_per_point;
   const double best = *std::max_element(evidence.begin(), evidence.end());
   // Until the belief first concentrates, no more than the tempering lets the particles count (a spread, global
   // belief: no early verdict between its modes); after, the tempering only keeps the particles of one tight mode
@@ -151,21 +183,40 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(post_log_weight_[i] - max);
   step.ess = effective_sample_size(weights_.data(), n);
 
-  // Hypotheses ranked by their tempered shares, each with its fit.
-  std::vector<std::int32_t> rank(h.size());
   for (std::size_t r = 0; r < h.size(); ++r) {
     h[r].weight = group_share_[r];
-    h[r].pose = refined[r];
-    h[r].inlier_ratio = fits[r].inlier_ratio();
-    h[r].coverage = fits[r].coverage();
-    h[r].see_through_ratio = fits[r].see_through_ratio();
-    rank[r] = static_cast<std::int32_t>(r);
+    h[r].pose = places.pose[r];
+    h[r].inlier_ratio = places.fit[r].inlier_ratio();
+    h[r].coverage = places.fit[r].coverage();
+    h[r].see_through_ratio = places.fit[r].see_through_ratio();
   }
+  rank_hypotheses(n, h, places.point_log, places.observed, rest);
+  covered_streak_ = h.front().coverage >= kMostOfTheScan ? covered_streak_ + 1 : 0;
+  mapped_track_ = mapped_track_ || covered_streak_ >= kMappedTrackUpdates;
+  step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
+}
+
+double ParticleFilter::rest_evidence(std::size_t n, std::size_t groups, double points) {
+  const ParticleArrays p = evaluator_.particles();
+  const double to_plain = 1.0 / params_.sensor.weight_exponent;
+  for (std::size_t i = 0; i < n; ++i) weights_[i] = prior_log_weight_[i] + to_plain * p.log_weight[i];
+  const std::vector<double> with = group_log_sums(weights_.data(), group_.data(), n, groups);
+  const std::vector<double> without = group_log_sums(prior_log_weight_.data(), group_.data(), n, groups);
+  const std::size_t rest = groups - 1;
+  if (!std::isfinite(with[rest]) || !std::isfinite(without[rest])) return std::numeric_limits<double>::quiet_NaN();
+  return (with[rest] - without[rest]) / points;
+}
+
+void ParticleFilter::rank_hypotheses(std::size_t n, std::vector<Hypothesis>& h,
+                                     std::vector<std::vector<double>>& point_log,
+                                     std::vector<std::vector<std::uint8_t>>& observed, std::int32_t rest_group) {
+  std::vector<std::int32_t> rank(h.size());
+  for (std::size_t r = 0; r < h.size(); ++r) rank[r] = static_cast<std::int32_t>(r);
   std::stable_sort(rank.begin(), rank.end(), [&](std::int32_t a, std::int32_t b) {
     return h[static_cast<std::size_t>(a)].weight > h[static_cast<std::size_t>(b)].weight;
   });
   std::vector<Hypothesis> sorted;
-  std::vector<std::int32_t> new_index(h.size() + 1, k);
+  std::vector<std::int32_t> new_index(h.size() + 1, rest_group);
   std::vector<double> shares(h.size() + 1, group_share_[h.size()]);
   for (std::size_t r = 0; r < rank.size(); ++r) {
     sorted.push_back(h[static_cast<std::size_t>(rank[r])]);
@@ -177,12 +228,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   top_observed_.swap(observed[static_cast<std::size_t>(rank[0])]);
   group_share_ = shares;
   h = std::move(sorted);
-
-  step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
 }
 
 bool ParticleFilter::map_judges_track() const {
-  constexpr double kMostOfTheScan = 0.75;
   return !(estimate_.coverage < std::max(params_.convergence.min_coverage, kMostOfTheScan));
 }
 

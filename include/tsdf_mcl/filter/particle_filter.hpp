@@ -258,7 +258,15 @@ class ParticleFilter {
   void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras,
                        FilterStep& step);
   void prepare_weights(std::size_t n, FilterStep& step);
+  // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
+  // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // The rest group's (particles in no hypothesis) evidence per point: their marginal likelihood; NaN without any.
+  double rest_evidence(std::size_t n, std::size_t groups, double points);
+  // Hypotheses and groups renumbered by share, best first; the top place's point log-likelihoods and map evidence
+  // (taken from `point_log` and `observed`, one per hypothesis) kept for the track keeper.
+  void rank_hypotheses(std::size_t n, std::vector<Hypothesis>& h, std::vector<std::vector<double>>& point_log,
+                       std::vector<std::vector<std::uint8_t>>& observed, std::int32_t rest_group);
   double belief_fit(std::size_t n, const WeightSummary& summary, std::size_t points) const;
   double judge_fit(FilterStep& step);
   // The track keeper's turn (track_keeper.hpp) after the convergence test: may move the estimate back onto the
@@ -336,6 +344,14 @@ class ParticleFilter {
   std::size_t injected_end_ = 0;
   bool ever_converged_ = false;     // since the last initialization or re-spread
   bool ever_concentrated_ = false;  // likewise
+  // Most of the scan: the map coverage at which the fit judges a place (map_judges_track, weigh_hypotheses).
+  static constexpr double kMostOfTheScan = 0.75;
+  // A place lying mostly in unobserved space whose observed points fit at least this well is at the frontier of
+  // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
+  static constexpr double kFrontierMinInliers = 0.8;
+  static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
+  std::size_t covered_streak_ = 0;  // updates in a row whose top hypothesis the map covered (most of the scan)
+  bool mapped_track_ = false;       // covered_streak_ reached kMappedTrackUpdates since the (re)start
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update
