@@ -209,12 +209,13 @@ void main() {
 #else
   uint j = 0u;
   if (INTERPOLATION == 0u && BATCH > 1u) {
-    // Nearest lookup, BATCH points at a time: all their coarse reads, then all their pool reads, then the sums
-    // (in point order, as on the CPU). Independent reads issued together overlap their cache misses, which
-    // bound this loop on lavapipe; a GPU gets the same latency hiding from it.
+    // Nearest lookup, BATCH points at a time: all their coarse reads, then all their pool reads, then all their
+    // table reads, then the sums (in point order, as on the CPU). Independent reads issued together overlap their
+    // cache misses, which bound this loop on lavapipe; a GPU gets the same latency hiding from it.
     for (; j + BATCH <= pc.point_count; j += BATCH) {
       bool inside[BATCH];
       uint cell[BATCH], local[BATCH], entry[BATCH], word[BATCH];
+      float term[BATCH];
       for (uint k = 0u; k < BATCH; ++k) {
         precise vec3 g = to_grid(scan_point(j + k), t, r0, r1, r2, r3, r4, r5, r6, r7, r8);
         precise vec3 n = floor(g + 0.5);
@@ -222,7 +223,8 @@ void main() {
       }
       for (uint k = 0u; k < BATCH; ++k) entry[k] = coarse_entry(cell[k]);
       for (uint k = 0u; k < BATCH; ++k) word[k] = voxel_word(inside[k], entry[k], local[k]);
-      for (uint k = 0u; k < BATCH; ++k) acc += nearest_term(decode(inside[k], entry[k], local[k], word[k]));
+      for (uint k = 0u; k < BATCH; ++k) term[k] = nearest_term(decode(inside[k], entry[k], local[k], word[k]));
+      for (uint k = 0u; k < BATCH; ++k) acc += term[k];
     }
   }
   for (; j < pc.point_count; ++j) {

@@ -225,7 +225,9 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
   // covers most of it: in a room the mapping run never entered the particles spread and `converged` lapses, which
   // on a scan at the edge of the coverage threshold must not turn the track into an off-map belief.
   if (estimate_.converged && !(estimate_.coverage < params_.convergence.min_coverage)) trusted_ = true;
-  if (!estimate_.converged && map_judges_track()) trusted_ = false;
+  // Nor is it lost while the dominant hypothesis still continues the kept track: a faint challenger alone (a
+  // look-alike's share of a few thousandths as the robot nears a skipped room) lapses `converged`, not the track.
+  if (!estimate_.converged && map_judges_track() && !track_followed_) trusted_ = false;
   if (!keeper_.active() && estimate_.converged) {
     keeper_.start(estimate_.pose);
     track_covariance_ = estimate_.covariance;
@@ -310,6 +312,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
     return step;
   }
   step.updated = true;
+  track_prediction_ = keeper_.active() ? std::optional<Pose>(keeper_.predict(delta)) : std::nullopt;
   Stopwatch t0;
   predict(n, delta, motion_.elapsed(time));
   step.timings.motion_ms = t0.ms();

@@ -25,6 +25,7 @@
 #include "tsdf_mcl/filter/pose_estimate.hpp"
 #include "tsdf_mcl/filter/recovery.hpp"
 #include "tsdf_mcl/filter/resampling.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
 #include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 #include "tsdf_mcl/filter/subset_first.hpp"
 #include "tsdf_mcl/filter/track_keeper.hpp"
@@ -261,6 +262,9 @@ class ParticleFilter {
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // A place at the frontier of unmapped space, whose evidence waits (weigh_hypotheses): after a mapped track, the
+  // map covers less than most of its scan, and it fits its observed points well or continues the kept track.
+  bool at_frontier(const RayFit& fit, const Pose& pose) const;
   // The rest group's (particles in no hypothesis) evidence per point: their marginal likelihood; NaN without any.
   double rest_evidence(std::size_t n, std::size_t groups, double points);
   // Hypotheses and groups renumbered by share, best first; the top place's point log-likelihoods and map evidence
@@ -331,6 +335,7 @@ class ParticleFilter {
   TrackKeeper keeper_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
   bool trusted_ = false;          // converged with enough map coverage, not lapsed where the map covers the scan
+  bool track_followed_ = false;   // this update: the dominant hypothesis continues the kept track (keep_track)
   Matrix6d track_covariance_ = Matrix6d::Zero();
   GroupResampler group_resampler_;
 
@@ -350,8 +355,9 @@ class ParticleFilter {
   // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
   static constexpr double kFrontierMinInliers = 0.8;
   static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
-  std::size_t covered_streak_ = 0;  // updates in a row whose top hypothesis the map covered (most of the scan)
-  bool mapped_track_ = false;       // covered_streak_ reached kMappedTrackUpdates since the (re)start
+  std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
+  bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start
+  std::optional<Pose> track_prediction_;  // this update: where the odometry carries the kept track, if any
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update
