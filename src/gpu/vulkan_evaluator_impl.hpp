@@ -25,8 +25,8 @@ constexpr std::uint32_t kSubgroupLayoutWorkgroup = 256;  // subgroup per particl
 constexpr std::uint32_t kReduceWorkgroup = 256;
 constexpr std::uint32_t kReduceItems = 4;
 constexpr std::uint32_t kReducePerGroup = kReduceWorkgroup * kReduceItems;
-constexpr std::uint32_t kNearestBatch =
-    16;  // points whose map reads the shader issues together (docs/sensor-update.md)
+// Points whose map reads the shader issues together (invocation layout; A/B figures in docs/sensor-update.md).
+constexpr std::uint32_t kNearestBatch = 16;
 // Bindings and specialization constants by name (shader_interface.h, shared with the shaders).
 constexpr std::uint32_t kEndpointBindings = EW_BINDINGS;
 constexpr std::uint32_t kMaxPoolChunks = EW_MAX_POOL_CHUNKS;

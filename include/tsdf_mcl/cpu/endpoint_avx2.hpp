@@ -1,8 +1,8 @@
 #pragma once
 // The nearest-lookup sensor update for 8 particles at a time with AVX2 gathers (x86-64 only, chosen at run
 // time). It performs exactly the scalar path's float operations per particle, in the same order, so its
-// log-weights are bit-identical to the scalar CPU evaluator's; the gathers keep eight lookups in flight,
-// which is what a memory-bound loop needs.
+// log-weights are bit-identical to the scalar CPU evaluator's. Batches of points go through short loops of
+// independent gathers, so that many lookups are in flight at once: what a memory-bound loop needs.
 #include <cstddef>
 
 #include "tsdf_mcl/sensor/endpoint_kernel.hpp"
