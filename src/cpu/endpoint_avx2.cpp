@@ -30,15 +30,7 @@ struct Poses {
 
 __attribute__((target("avx2"))) Poses load_poses(const ParticleArrays& p, std::size_t i, std::size_t end) {
   alignas(32) float rows[12][8];
-  for (std::size_t k = 0; k < 8; ++k) {
-    const std::size_t s = std::min(i + k, end - 1);  // a short last group repeats its last particle
-    float r[9];
-    rotation_matrix(p.qw[s], p.qx[s], p.qy[s], p.qz[s], r);
-    for (int a = 0; a < 9; ++a) rows[a][k] = r[a];
-    rows[9][k] = p.x[s];
-    rows[10][k] = p.y[s];
-    rows[11][k] = p.z[s];
-  }
+  pose_lanes(p, i, end, rows);
   Poses poses;
   for (int a = 0; a < 12; ++a) poses.r[a] = _mm256_load_ps(rows[a]);
   return poses;

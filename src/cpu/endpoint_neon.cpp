@@ -54,15 +54,7 @@ void accumulate_nearest_neon(const MapView& map, const float* table, const Parti
 
   for (std::size_t i = begin; i < end; i += 4) {
     alignas(16) float rows[12][4];
-    for (std::size_t k = 0; k < 4; ++k) {
-      const std::size_t s = std::min(i + k, end - 1);  // a short last group repeats its last particle
-      float r[9];
-      rotation_matrix(p.qw[s], p.qx[s], p.qy[s], p.qz[s], r);
-      for (int a = 0; a < 9; ++a) rows[a][k] = r[a];
-      rows[9][k] = p.x[s];
-      rows[10][k] = p.y[s];
-      rows[11][k] = p.z[s];
-    }
+    pose_lanes(p, i, end, rows);
     float32x4_t r[12];
     for (int a = 0; a < 12; ++a) r[a] = vld1q_f32(rows[a]);
     float32x4_t acc = vdupq_n_f32(0.0f);

@@ -12,6 +12,7 @@
 #include "tsdf_mcl/sensor/endpoint_model.hpp"
 #include "tsdf_mcl/map/map_lookup.hpp"
 #include "tsdf_mcl/map/tsdf_map.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::kernel {
 
@@ -29,6 +30,21 @@ inline void rotation_matrix(float qw, float qx, float qy, float qz, float r[9]) 
   r[6] = 2.0f * (xz - wy);
   r[7] = 2.0f * (yz + wx);
   r[8] = 1.0f - 2.0f * (xx + yy);
+}
+
+// The poses of particles [i, i + Lanes) transposed for SIMD lanes: rows[a][k] holds, for a < 9, the rotation
+// matrix's entries (row-major) and, for a = 9..11, the position; a short last group repeats particle end - 1.
+template <std::size_t Lanes>
+inline void pose_lanes(const ParticleArrays& p, std::size_t i, std::size_t end, float (&rows)[12][Lanes]) {
+  for (std::size_t k = 0; k < Lanes; ++k) {
+    const std::size_t s = std::min(i + k, end - 1);
+    float r[9];
+    rotation_matrix(p.qw[s], p.qx[s], p.qy[s], p.qz[s], r);
+    for (int a = 0; a < 9; ++a) rows[a][k] = r[a];
+    rows[9][k] = p.x[s];
+    rows[10][k] = p.y[s];
+    rows[11][k] = p.z[s];
+  }
 }
 
 // World coordinates of a sensor-frame point, in grid units (world / voxel size).
