@@ -108,6 +108,21 @@ FilterRun run(ParticleFilter& filter, const Scans& scans, const std::vector<Pose
   return r;
 }
 
+// The twin-wing building's route from the west room along the corridor into the east room.
+std::vector<Pose> into_the_east_room() {
+  return route_through({{1.5, 3.0}, {4.5, 4.0}, {17.0, 4.0}, {20.5, 4.0}, {21.5, 2.0}});
+}
+
+// Tracks `truth` from its first pose in `map`, scans simulated in `boxes`, drifting odometry.
+FilterRun track_route(const TsdfMap& map, const std::vector<Box>& boxes, const std::vector<Pose>& truth) {
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 11);
+  const Scans scans = scan_route(boxes, truth, 6);
+  auto eval = cpu_evaluator(map);
+  ParticleFilter filter(map, *eval, small_building(), 256);
+  filter.initialize_local(truth[0]);
+  return run(filter, scans, truth, odometry);
+}
+
 // The building of two identical wings (filter_test_scene.hpp), mapped without the east room: the mapping run
 // saw the corridor up to the room's wall and never entered. The robot tracks from the west room along the
 // corridor into the east room, whose mapped twin (the west room, turned by half a turn) explains its scans
@@ -116,13 +131,8 @@ TEST(ChangedMap, TheTrackHoldsIntoAnUnmappedRoomAndSaysSo) {
   const std::vector<Box> boxes = test::twin_wing_boxes(true);
   const TsdfMap map =
       test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(18.0f, 8.2f, 2.8f));
-  const std::vector<Pose> truth = route_through({{1.5, 3.0}, {4.5, 4.0}, {17.0, 4.0}, {20.5, 4.0}, {21.5, 2.0}});
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 11);
-  const Scans scans = scan_route(boxes, truth, 6);
-  auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, small_building(), 256);
-  filter.initialize_local(truth[0]);
-  const FilterRun r = run(filter, scans, truth, odometry);
+  const std::vector<Pose> truth = into_the_east_room();
+  const FilterRun r = track_route(map, boxes, truth);
   bool converged_before = false;
   std::size_t unmapped = 0, deep = 0;
   for (std::size_t i = 0; i < truth.size(); ++i) {
@@ -175,13 +185,8 @@ TEST(ChangedMap, TheTrackHoldsPastTheFrontierOfAMapBuiltFromScans) {
   options.voxel_size = 0.1f;
   options.truncation = 0.3f;
   const TsdfMap map = build_map_from_scans(dataset, all, options);
-  const std::vector<Pose> truth = route_through({{1.5, 3.0}, {4.5, 4.0}, {17.0, 4.0}, {20.5, 4.0}, {21.5, 2.0}});
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 11);
-  const Scans scans = scan_route(boxes, truth, 6);
-  auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, small_building(), 256);
-  filter.initialize_local(truth[0]);
-  const FilterRun r = run(filter, scans, truth, odometry);
+  const std::vector<Pose> truth = into_the_east_room();
+  const FilterRun r = track_route(map, boxes, truth);
   std::size_t deep = 0, unmapped = 0;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const FilterStep& s = r.steps[i];
