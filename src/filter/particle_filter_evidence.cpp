@@ -65,7 +65,8 @@ std::vector<std::size_t> heaviest_particles(const std::int32_t* group, const dou
 // The better start wins (ties: the mean).
 Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
                      const std::vector<std::size_t>& heaviest, std::size_t n,
-                     const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance) {
+                     const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance,
+                     float frontier_reach) {
   struct Start {
     std::size_t hypothesis;
     Pose pose;
@@ -111,6 +112,7 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
   for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
     const auto r = static_cast<std::size_t>(rr);
     places.fit[r] = ray_fit(map, places.pose[r], points, inlier_distance, 0.4f, &places.observed[r]);
+    if (frontier_reach > 0.0f) drop_frontier_points(map, places.pose[r], points, frontier_reach, places.observed[r]);
   }
   for (std::size_t r = 0; r < h.size(); ++r) {
     if (places.total[r] > places.total[places.reference]) places.reference = r;
@@ -138,7 +140,7 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   const auto count = static_cast<double>(points.size());
   Places places =
       refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
-                    points, plain, params_.inlier_distance);
+                    points, plain, params_.inlier_distance, frontier_reach());
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
@@ -246,6 +248,13 @@ double ParticleFilter::judged_ratio() const {
   return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
 }
 
+float ParticleFilter::frontier_reach() const {
+  // Only once the belief has followed a place the map covers (mapped_track_): a global search's first updates
+  // need every point to tell places apart, and dropping the frontier's there delayed the first right estimate by
+  // 1-3 s in the avz building (open to the sky, so every wall top is a frontier).
+  return params_.frontier_evidence || !mapped_track_ ? 0.0f : map_.truncation();
+}
+
 double ParticleFilter::evidence_dead_band() const {
   return 0.5 * static_cast<double>(params_.inlier_distance * params_.inlier_distance) /
          static_cast<double>(params_.sensor.sigma_hit * params_.sensor.sigma_hit);
@@ -274,6 +283,7 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
     point_log_likelihoods(map_, plain, continuation.translation().cast<float>(), q, points, log);
     std::vector<std::uint8_t> observed;
     fit = ray_fit(map_, continuation, points, params_.inlier_distance, 0.4f, &observed);
+    if (frontier_reach() > 0.0f) drop_frontier_points(map_, continuation, points, frontier_reach(), observed);
     const PairedEvidence e = paired_evidence(top_log_, top_observed_, log, observed, evidence_dead_band());
     evidence = params_.hypothesis_evidence_points * e.sum / static_cast<double>(points.size());
     // With the continuation at the frontier of unmapped space (weigh_hypotheses) the scan cannot prove the

@@ -97,6 +97,24 @@ struct Ray {
   }
 };
 
+// A pose as the sensor update applies it: the float rotation and translation of kernel::to_grid, and the sensor's
+// position in grid units.
+struct GridPose {
+  float r[9];
+  float t[3];
+  Eigen::Vector3f origin;
+
+  GridPose(const Pose& pose, const kernel::MapView& view) {
+    const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
+    kernel::rotation_matrix(q.w(), q.x(), q.y(), q.z(), r);
+    const Eigen::Vector3f tf = pose.translation().cast<float>();
+    t[0] = tf.x();
+    t[1] = tf.y();
+    t[2] = tf.z();
+    origin = tf * view.inv_voxel;
+  }
+};
+
 }  // namespace
 
 RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, float max_distance,
@@ -110,24 +128,19 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
   const auto near_limit = static_cast<std::int32_t>(std::ceil(max_distance / view.quant_step));
   const auto inside_limit = static_cast<std::int32_t>(std::floor(-2.0f * voxel / view.quant_step));
   const auto front_rise = static_cast<std::int32_t>(std::ceil(0.4f * voxel / view.quant_step));
-  const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
-  float rm[9];
-  kernel::rotation_matrix(q.w(), q.x(), q.y(), q.z(), rm);
-  const Eigen::Vector3f tf = pose.translation().cast<float>();
-  const float t[3] = {tf.x(), tf.y(), tf.z()};
-  const Eigen::Vector3f origin = tf * view.inv_voxel;  // grid units
+  const GridPose grid(pose, view);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3f& p = points[i];
     // The endpoint as the sensor update computes it, so that "inlier" means what the likelihood saw.
     float g[3];
-    kernel::to_grid(rm, t, view.inv_voxel, p.x(), p.y(), p.z(), g);
+    kernel::to_grid(grid.r, grid.t, view.inv_voxel, p.x(), p.y(), p.z(), g);
     const Eigen::Vector3f end(g[0], g[1], g[2]);
     const std::int32_t at_end = kernel::sample_nearest(view, g);
     const float length = p.norm();
     // Grid units per metre along the ray.
     const Eigen::Vector3f direction =
-        length > 0.0f ? Eigen::Vector3f((end - origin) / length) : Eigen::Vector3f::Zero();
-    const Ray ray{view, voxel, inside_limit, front_rise, origin, direction};
+        length > 0.0f ? Eigen::Vector3f((end - grid.origin) / length) : Eigen::Vector3f::Zero();
+    const Ray ray{view, voxel, inside_limit, front_rise, grid.origin, direction};
     bool met_surface = false;  // the ray met the inside of a surface on its way (Ray::passes_through)
     const bool through = length > end_margin && ray.passes_through(length - end_margin, &met_surface);
     if (through) ++fit.see_through;
@@ -161,6 +174,52 @@ PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vect
     ++e.shared;
   }
   return e;
+}
+
+std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points,
+                                 float reach, std::vector<std::uint8_t>& observed) {
+  if (points.empty() || map.empty() || !(reach > 0.0f)) return 0;
+  const kernel::MapView view(map);
+  const float truncation = map.truncation();
+  const auto near_surface = static_cast<std::int32_t>(0.5f * truncation / view.quant_step);
+  const GridPose grid(pose, view);
+  const float reach_grid = reach * view.inv_voxel;
+  std::size_t dropped = 0;
+  for (std::size_t j = 0; j < points.size() && j < observed.size(); ++j) {
+    if (!observed[j]) continue;
+    const float range = points[j].norm();
+    if (!(range > 0.0f)) continue;
+    float g[3];
+    kernel::to_grid(grid.r, grid.t, view.inv_voxel, points[j].x(), points[j].y(), points[j].z(), g);
+    const Eigen::Vector3f direction = (Eigen::Vector3f(g[0], g[1], g[2]) - grid.origin) / range;  // grid units per m
+    const auto seen = [&](const float at[3]) {
+      if (kernel::sample_nearest(view, at) != TsdfMap::kUnknownValue) return true;
+      for (int k = 1; k <= 3; ++k) {
+        const float back = static_cast<float>(k) * truncation;
+        if (back >= range) break;
+        const float h[3] = {at[0] - back * direction.x(), at[1] - back * direction.y(), at[2] - back * direction.z()};
+        const std::int32_t v = kernel::sample_nearest(view, h);
+        if (v != TsdfMap::kUnknownValue) return v < near_surface;
+      }
+      return false;
+    };
+    bool frontier = false;
+    for (int a = 0; a < 3 && !frontier; ++a) {
+      for (const float sign : {-1.0f, 1.0f}) {
+        float at[3] = {g[0], g[1], g[2]};
+        at[a] += sign * reach_grid;
+        if (!seen(at)) {
+          frontier = true;
+          break;
+        }
+      }
+    }
+    if (frontier) {
+      observed[j] = 0;
+      ++dropped;
+    }
+  }
+  return dropped;
 }
 
 Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations) {

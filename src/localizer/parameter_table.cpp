@@ -254,6 +254,10 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
       {"hypothesis_evidence_points", "N", num(f.hypothesis_evidence_points),
        "between hypotheses (modes) a scan counts as this many independent points of evidence (0 = untempered)",
        kAdvanced},
+      {"frontier_evidence", "", "",
+       "let points at the frontier of the map's observed space (within a truncation length of space it never "
+       "observed) count as evidence between places (off: they do not)",
+       kAdvanced},
       {"hypothesis_min_particles", "N", std::to_string(f.hypothesis_min_particles),
        "each hypothesis with at least hypothesis_min_weight keeps this many particles through resampling", kAdvanced},
       {"hypothesis_min_weight", "W", num(f.hypothesis_min_weight),

@@ -2,7 +2,9 @@
 // poses on the points both observe, the TrackKeeper's decisions, the TrackState names.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "filter_test_scene.hpp"
@@ -100,6 +102,88 @@ TEST(MapEvidence, TheFarFaceOfAWallSeenFromBehindIsUnobserved) {
   EXPECT_EQ(observed, (std::vector<std::uint8_t>{0, 0}));
   EXPECT_EQ(back.observed, 0u);
   EXPECT_EQ(back.back_faces, 2u);
+}
+
+// A 5 x 4 m room mapped from the ground: the map holds it up to 1.6 m; the upper walls and the ceiling are space
+// it never observed.
+TsdfMap low_mapped_room() {
+  const std::vector<Box> room = {box(-0.2f, -0.2f, -0.2f, 5.2f, 4.2f, 0.0f), box(-0.2f, -0.2f, 3.0f, 5.2f, 4.2f, 3.2f),
+                                 box(-0.2f, -0.2f, 0.0f, 0.0f, 4.2f, 3.0f),  box(5.0f, -0.2f, 0.0f, 5.2f, 4.2f, 3.0f),
+                                 box(-0.2f, -0.2f, 0.0f, 5.2f, 0.0f, 3.0f),  box(-0.2f, 4.0f, 0.0f, 5.2f, 4.2f, 3.0f)};
+  return test::make_box_map(room, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(5.2f, 4.2f, 1.6f), 0.05f, 0.3f);
+}
+
+TEST(MapEvidence, PointsAtTheFrontierOfTheObservedSpaceAreNoEvidence) {
+  const TsdfMap map = low_mapped_room();
+  const Pose pose = pose_from_xyz_rpy(2.5, 2.0, 1.0, 0.0, 0.0, 0.0);
+  const std::vector<Eigen::Vector3f> points = {
+      Eigen::Vector3f(2.5f, 0.0f, 0.5f),    // east wall at 1.5 m, 0.1 m below its unobserved upper part: frontier
+      Eigen::Vector3f(2.5f, 0.0f, 0.0f),    // east wall at 1.0 m
+      Eigen::Vector3f(0.0f, -2.0f, -0.6f),  // south wall at 0.4 m
+      Eigen::Vector3f(0.0f, 0.0f, -1.0f),   // the floor
+      Eigen::Vector3f(2.9f, 0.0f, 0.0f),    // behind the east wall: a miss the map judges, not a frontier
+  };
+  std::vector<std::uint8_t> observed;
+  ray_fit(map, pose, points, 0.2f, 0.4f, &observed);
+  ASSERT_EQ(observed, (std::vector<std::uint8_t>{1, 1, 1, 1, 1}));
+  EXPECT_EQ(drop_frontier_points(map, pose, points, map.truncation(), observed), 1u);
+  EXPECT_EQ(observed, (std::vector<std::uint8_t>{0, 1, 1, 1, 1}));
+  // Unobserved points stay unobserved, and no reach means no frontier.
+  std::vector<std::uint8_t> none(points.size(), 0);
+  EXPECT_EQ(drop_frontier_points(map, pose, points, map.truncation(), none), 0u);
+  EXPECT_EQ(none, std::vector<std::uint8_t>(points.size(), 0));
+  ray_fit(map, pose, points, 0.2f, 0.4f, &observed);
+  EXPECT_EQ(drop_frontier_points(map, pose, points, 0.0f, observed), 0u);
+}
+
+// The same room whose walls' top band (from 1.3 m up) the mapping run saw from afar, at grazing angles: the map
+// holds them 0.25 m off. Seen from 0.3 m lower, the upper walls' points land on the accurate lower band, and on the
+// points both heights observe the lower pose explained the scan better by the frontier's points alone.
+TEST(PairedEvidence, TheFrontierDoesNotDecideBetweenHeights) {
+  TsdfMap map = low_mapped_room();
+  const Eigen::Vector3i lo = map.voxel_of(Eigen::Vector3f(-0.2f, -0.2f, 1.3f));
+  const Eigen::Vector3i hi = map.voxel_of(Eigen::Vector3f(5.2f, 4.2f, 1.6f));
+  for (int x = lo.x(); x <= hi.x(); ++x) {
+    for (int y = lo.y(); y <= hi.y(); ++y) {
+      for (int z = lo.z(); z <= hi.z(); ++z) {
+        const Eigen::Vector3i v(x, y, z);
+        const std::optional<float> d = map.distance(v);
+        if (d) map.set_distance(v, std::min(*d + 0.25f, map.truncation()));
+      }
+    }
+  }
+  std::vector<Eigen::Vector3f> points;  // a VLP-16-like fan of the walls from (2.5, 2, 1.5)
+  for (int ring = 0; ring < 16; ++ring) {
+    const double elevation = (-15.0 + 2.0 * ring) * M_PI / 180.0;
+    for (int k = 0; k < 48; ++k) {
+      const double azimuth = k * 2.0 * M_PI / 48.0;
+      const Eigen::Vector3d dir(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                                std::sin(elevation));
+      double t = 1e9;
+      if (dir.x() > 1e-6) t = std::min(t, 2.5 / dir.x());
+      if (dir.x() < -1e-6) t = std::min(t, -2.5 / dir.x());
+      if (dir.y() > 1e-6) t = std::min(t, 2.0 / dir.y());
+      if (dir.y() < -1e-6) t = std::min(t, -2.0 / dir.y());
+      points.push_back((t * dir).cast<float>());
+    }
+  }
+  const Pose truth = pose_from_xyz_rpy(2.5, 2.0, 1.5, 0.0, 0.0, 0.0);
+  const Pose low = pose_from_xyz_rpy(2.5, 2.0, 1.2, 0.0, 0.0, 0.0);
+  const EndpointModel model;
+  std::vector<double> log_truth, log_low;
+  point_log_likelihoods(map, model, truth.translation().cast<float>(), Eigen::Quaternionf::Identity(), points,
+                        log_truth);
+  point_log_likelihoods(map, model, low.translation().cast<float>(), Eigen::Quaternionf::Identity(), points, log_low);
+  std::vector<std::uint8_t> obs_truth, obs_low;
+  ray_fit(map, truth, points, 0.2f, 0.4f, &obs_truth);
+  ray_fit(map, low, points, 0.2f, 0.4f, &obs_low);
+  const double with_frontier = paired_evidence(log_low, obs_low, log_truth, obs_truth, 0.5).sum;
+  EXPECT_GT(with_frontier, 5.0) << "the frontier's points favour the lower pose";
+  drop_frontier_points(map, truth, points, map.truncation(), obs_truth);
+  drop_frontier_points(map, low, points, map.truncation(), obs_low);
+  const PairedEvidence without = paired_evidence(log_low, obs_low, log_truth, obs_truth, 0.5);
+  EXPECT_GT(without.shared, 100u);
+  EXPECT_LT(std::abs(without.sum), 1.0);
 }
 
 TEST(PairedEvidence, CountsOnlyPointsObservedUnderBothPoses) {

@@ -124,6 +124,9 @@ struct FilterParameters {
   // hypothesis_min_particles particles through resampling, whatever its share: a look-alike room is not lost to
   // resampling noise before a view tells the rooms apart.
   double hypothesis_evidence_points = 16.0;
+  // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
+  // scan_fit.hpp: drop_frontier_points) are no evidence between places unless this is set.
+  bool frontier_evidence = false;
   std::size_t hypothesis_min_particles = 200;
   double hypothesis_min_weight = 1e-5;
   // A scan point is an inlier (scan_fit.hpp) within this distance of a surface (m).
@@ -278,6 +281,8 @@ class ParticleFilter {
   void keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
   TrackState classify(const FilterStep& step) const;
   double evidence_dead_band() const;  // what a point inlier_distance off a surface loses (nats)
+  // How far from unobserved space a point must land to be evidence between places (0: any observed point is).
+  float frontier_reach() const;
   // A track that was converged at the last update where the map covered the scan: only such a track tracks
   // through unmapped space (its fit is judged on the observed points, and not at all where the map covers too
   // little). Any other belief is judged on the inlier share of all its points: a lost track that drifts out of

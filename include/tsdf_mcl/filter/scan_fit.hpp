@@ -68,6 +68,17 @@ PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vect
                                const std::vector<double>& log_b, const std::vector<std::uint8_t>& observed_b,
                                double dead_band);
 
+// Clears observed[j] for the points at the frontier of the map's observed space at `pose`: an endpoint within
+// `reach` (m, along any axis) of space the map never observed. What a map holds there it saw once, from afar or at
+// a grazing angle through a door (the upper edge of walls a ground robot saw from below, a skipped room's walls
+// seen from the corridor): between two places such points decided for whichever place the map happened to see
+// better, not for where the robot is. An endpoint counts as observed where its voxel is known, or where the first
+// known voxel back along its ray (within three truncation lengths) lies inside or on a surface: a ray that went
+// through a wall is a miss the map can judge. Returns how many were cleared.
+std::size_t drop_frontier_points(const TsdfMap& map, const Pose& world_T_sensor,
+                                 const std::vector<Eigen::Vector3f>& points, float reach,
+                                 std::vector<std::uint8_t>& observed);
+
 // The pose near `world_T_sensor` at which `points` fit the map best: a few damped Gauss-Newton steps on their
 // distances (trilinear, Huber-weighted beyond 0.1 m; points in unknown space or beyond the truncation band take
 // no part). Comparing two hypotheses at their refined poses compares the places, not how well each hypothesis's
