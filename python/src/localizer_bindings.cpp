@@ -64,7 +64,8 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   out.points = {{"input", r.points.input},
                 {"in_range", r.points.in_range},
                 {"thinned", r.points.thinned},
-                {"used", r.points.output}};
+                {"used", r.points.output},
+                {"track_evidence", s.weighed_points}};  // report.json's, 0 for its null (every point)
   const StepTimings& t = s.timings;
   out.timings = {{"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},
                  {"upload_ms", t.upload_ms},         {"weight_ms", t.weight_ms},

@@ -32,6 +32,8 @@ def test_same_run_as_the_cli(scene, cli, tmp_path):
         assert r.particles == s["particles"]
         assert r.ess == s["ess"]
         assert r.points["used"] == s["points"]["used"]
+        if s["updated"]:
+            assert r.points["track_evidence"] == (s["points"]["track_evidence"] or 0)
     # The CLI's metrics for its trajectory and for the module's are the same, and the run converged.
     cli_metrics = json.loads(run(cli, "evaluate", "--estimate", str(out / "trajectory.tum"), "--dataset",
                                  scene["dataset"]).stdout)

@@ -32,6 +32,7 @@ void ParticleFilter::prepare_weights(std::size_t n, FilterStep& step) {
   const Tempering t = temper(prior_log_weight_.data(), p.log_weight, n, target, weights_.data());
   const double beta = t.beta;
   for (std::size_t i = 0; i < n; ++i) post_log_weight_[i] = prior_log_weight_[i] + beta * p.log_weight[i];
+  if (track_reweighed_) weigh_track_within(n, beta);
   step.tempering = beta;
   step.ess = t.ess;
 }
@@ -195,6 +196,7 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   covered_streak_ = h.front().coverage >= kMostOfTheScan ? covered_streak_ + 1 : 0;
   mapped_track_ = mapped_track_ || covered_streak_ >= kMappedTrackUpdates;
   step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
+  dominant_concentrated_ = step.concentrated;
 }
 
 bool ParticleFilter::at_frontier(const RayFit& fit, const Pose& pose) const {
@@ -253,6 +255,78 @@ float ParticleFilter::frontier_reach() const {
   // need every point to tell places apart, and dropping the frontier's there delayed the first right estimate by
   // 1-3 s in the avz building (open to the sky, so every wall top is a frontier).
   return params_.frontier_evidence || !mapped_track_ ? 0.0f : map_.truncation();
+}
+
+void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points,
+                                             const Pose& predicted, FilterStep& step) {
+  track_reweighed_ = false;
+  // A belief spread less than a truncation length: a point a truncation length clear of unobserved space at the
+  // predicted pose stays clear of it under every particle that matters, and one at the frontier is dropped for all.
+  // (Wider reaches probe past the surfaces' bands into the unknown inside walls: in a fully mapped building a reach
+  // of truncation + 2 sigma dropped half of a scan.)
+  const float reach = map_.truncation();
+  // One place only: with two wings of a symmetric building at half the belief each, reweighing the one near the
+  // estimate and not its mirror tipped which of the two led (the estimate's wing is a coin toss there anyway).
+  if (params_.frontier_evidence || !dominant_concentrated_ || !(estimate_.std_position <= static_cast<double>(reach))) {
+    return;
+  }
+  ray_fit(map_, predicted, points, params_.inlier_distance, 0.4f, &evidence_observed_);
+  const std::size_t dropped = drop_frontier_points(map_, predicted, points, reach, evidence_observed_);
+  std::size_t unobserved = 0;
+  for (const std::uint8_t o : evidence_observed_) unobserved += o ? 0 : 1;
+  // Nothing to drop, or too little left to weigh on (a room the mapping run never entered): the whole scan.
+  if (dropped == 0 && unobserved == 0) return;
+  if (points.size() - unobserved < std::max<std::size_t>(kMinEvidencePoints, points.size() / 8)) return;
+  evidence_points_.clear();
+  for (std::size_t j = 0; j < points.size(); ++j) {
+    if (evidence_observed_[j]) evidence_points_.push_back(points[j]);
+  }
+  const ParticleArrays p = evaluator_.particles();
+  scan_log_weight_.assign(p.log_weight, p.log_weight + n);
+  FilterStep evidence_step;
+  weigh_scan(n, evidence_points_, evidence_step);
+  step.timings.weight_ms += evidence_step.timings.weight_ms;
+  step.timings.weight_gpu_ms += evidence_step.timings.weight_gpu_ms;
+  step.weighed_points = evidence_points_.size();
+  // The evaluator's arrays keep the whole scan's log-weights (tempering, recovery's fit, the rest's evidence); the
+  // track's particles, near the predicted pose, take the evidence points' in prepare_weights.
+  evidence_log_weight_.assign(p.log_weight, p.log_weight + n);
+  std::copy_n(scan_log_weight_.begin(), n, p.log_weight);
+  const Eigen::Vector3f centre = predicted.translation().cast<float>();
+  const auto near = static_cast<float>(kTrackRadius);
+  in_track_.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    in_track_[i] = (Eigen::Vector3f(p.x[i], p.y[i], p.z[i]) - centre).norm() <= near ? 1 : 0;
+  }
+  track_reweighed_ = true;
+}
+
+void ParticleFilter::weigh_track_within(std::size_t n, double beta) {
+  // The track's posterior log-weights with the evidence points' likelihood, shifted so that their log-sum-exp (the
+  // track's weight against every other place) stays what the whole scan gave.
+  double max_scan = -std::numeric_limits<double>::infinity();
+  double max_evidence = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!in_track_[i]) continue;
+    evidence_log_weight_[i] = prior_log_weight_[i] + beta * evidence_log_weight_[i];
+    max_scan = std::max(max_scan, post_log_weight_[i]);
+    max_evidence = std::max(max_evidence, evidence_log_weight_[i]);
+  }
+  if (!std::isfinite(max_scan)) return;  // no particle near the track
+  double sum_scan = 0.0;
+  double sum_evidence = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!in_track_[i]) continue;
+    sum_scan += std::exp(post_log_weight_[i] - max_scan);
+    sum_evidence += std::exp(evidence_log_weight_[i] - max_evidence);
+  }
+  const double shift = (max_scan + std::log(sum_scan)) - (max_evidence + std::log(sum_evidence));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (in_track_[i]) post_log_weight_[i] = evidence_log_weight_[i] + shift;
+  }
+  const double max =
+      *std::max_element(post_log_weight_.begin(), post_log_weight_.begin() + static_cast<std::ptrdiff_t>(n));
+  for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(post_log_weight_[i] - max);
 }
 
 double ParticleFilter::evidence_dead_band() const {

@@ -44,6 +44,9 @@ nlohmann::json scan_json(const ScanRecord& r) {
   j["timings_ms"] = {{"preprocess", r.preprocess_ms}};
   if (step.updated) {
     const StepTimings& t = step.timings;
+    // The points a concentrated cloud's particles were weighed on among themselves (clear of unobserved space and
+    // its frontier: ParticleFilter::weigh_track_on_evidence); null where every particle was weighed on all of them.
+    j["points"]["track_evidence"] = step.weighed_points ? nlohmann::json(step.weighed_points) : nlohmann::json(nullptr);
     j["particles"] = step.particles;
     j["particles_after"] = step.next_particles;
     j["resampled"] = step.resampled;

@@ -256,7 +256,7 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        kAdvanced},
       {"frontier_evidence", "", "",
        "let points at the frontier of the map's observed space (within a truncation length of space it never "
-       "observed) count as evidence between places (off: they do not)",
+       "observed) count as evidence between places and between a concentrated cloud's particles (off: they do not)",
        kAdvanced},
       {"hypothesis_min_particles", "N", std::to_string(f.hypothesis_min_particles),
        "each hypothesis with at least hypothesis_min_weight keeps this many particles through resampling", kAdvanced},

@@ -136,6 +136,15 @@ TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   const auto& last = report["scans"].back();
   EXPECT_EQ(last["state"], "converged");
   EXPECT_GT(last["coverage"].get<double>(), 0.9);
+  // Every update says how many points a concentrated cloud was weighed on among itself (null: all of them).
+  for (const auto& scan : report["scans"]) {
+    if (!scan["updated"].get<bool>()) continue;
+    ASSERT_TRUE(scan["points"].contains("track_evidence"));
+    const auto& weighed = scan["points"]["track_evidence"];
+    if (!weighed.is_null()) {
+      EXPECT_LE(weighed.get<int>(), scan["points"]["used"].get<int>());
+    }
+  }
   EXPECT_EQ(report["summary"]["final_state"], "converged");
   std::size_t by_state = 0;
   for (const auto& [name, count] : report["summary"]["scans_by_state"].items()) {

@@ -75,13 +75,20 @@ TEST(RealData, BalmGlobalLocalizationOnTheOddScans) {
   const auto report = nlohmann::json::parse(tsdf_mcl::test::read_bytes(dir / "run/report.json"));
   EXPECT_EQ(report["summary"]["particles"]["max"], 100000);
   std::vector<int> late;
+  int injected = 0;
   for (const auto& s : report["scans"]) {
-    if (s["updated"].get<bool>() && s["scan"].get<int>() >= 61) late.push_back(s["particles_after"].get<int>());
+    if (!s["updated"].get<bool>() || s["scan"].get<int>() < 61) continue;
+    late.push_back(s["particles_after"].get<int>());
+    injected += s["injected"].get<int>();
   }
   ASSERT_FALSE(late.empty());
   std::sort(late.begin(), late.end());
-  EXPECT_LE(late[late.size() / 2], 3000) << "median particle count after convergence";
-  EXPECT_LE(late.back(), 20000) << "no flood of random particles on a correct track";
+  // Measured: median 3407, max 21583-28363 (2004 and 12026 before a tracked cloud was weighed on the points clear of
+  // the map's frontier, a third of balm's scan: the cloud is wider, and KLD-sampling follows it for a few updates
+  // where its spread reaches 0.25-0.3 m; docs/filter.md).
+  EXPECT_LE(late[late.size() / 2], 4000) << "median particle count after convergence";
+  EXPECT_LE(late.back(), 40000) << "KLD-sampling stays far below the global search's 100000";
+  EXPECT_EQ(injected, 0) << "no random particles on a correct track";
 }
 
 }  // namespace

@@ -125,7 +125,8 @@ struct FilterParameters {
   // resampling noise before a view tells the rooms apart.
   double hypothesis_evidence_points = 16.0;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
-  // scan_fit.hpp: drop_frontier_points) are no evidence between places unless this is set.
+  // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
+  // cloud (weigh_track_on_evidence), unless this is set.
   bool frontier_evidence = false;
   std::size_t hypothesis_min_particles = 200;
   double hypothesis_min_weight = 1e-5;
@@ -181,9 +182,10 @@ struct FilterStep {
   std::size_t kld_bins = 0;        // bins occupied by the weighted set (when resampled)
   std::size_t injected = 0;        // random particles from recovery
   std::size_t points = 0;
-  double ess = 0.0;        // effective sample size after tempering
-  double tempering = 1.0;  // the adaptive factor applied to the log-likelihoods
-  double fit = 0.0;        // mean per-point geometric-mean likelihood over particles (diagnostic)
+  std::size_t weighed_points = 0;  // of them, a concentrated cloud's were weighed on among themselves (0: all)
+  double ess = 0.0;                // effective sample size after tempering
+  double tempering = 1.0;          // the adaptive factor applied to the log-likelihoods
+  double fit = 0.0;                // mean per-point geometric-mean likelihood over particles (diagnostic)
   double w_slow = 0.0;
   double w_fast = 0.0;
   double random_share = 0.0;    // share of the next generation from the proposal (recovery)
@@ -251,6 +253,15 @@ class ParticleFilter {
   void predict(std::size_t n, const Pose& delta, double dt);
   // Sensor update: the scan's likelihood of every particle (subset first where configured).
   WeightSummary weigh_scan(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // Unknown is unknown within a concentrated belief (one dominant hypothesis, spread under a truncation length): its
+  // particles (those near the predicted pose) are weighed against each other on the points that land, at that pose,
+  // clear of space the map never observed and of its frontier (drop_frontier_points), so none gains by pushing the scan
+  // out of the unobserved band (a drone whose map's walls end where the mapping robot's view did sank towards the
+  // floor). The cloud's total against other places stays the whole scan's (and so do the tempering, recovery's fit and
+  // the hypotheses' evidence): the points its place never observed are evidence against a look-alike that did. Sets
+  // step.weighed_points (0 where the whole scan weighs every particle).
+  void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& predicted,
+                               FilterStep& step);
   // Evidence: tempered weights, the hypotheses and their paired evidence, the fit recovery follows and the
   // implausible-fit test; returns the share of the next generation a wrong lock sends to a new search (0: none).
   double weigh_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const WeightSummary& summary,
@@ -262,6 +273,9 @@ class ParticleFilter {
   void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras,
                        FilterStep& step);
   void prepare_weights(std::size_t n, FilterStep& step);
+  // The track's particles' posterior log-weights from the evidence points (weigh_track_on_evidence), tempered by
+  // `beta` like the whole scan's, their log-sum-exp kept; then weights_ again.
+  void weigh_track_within(std::size_t n, double beta);
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
@@ -359,6 +373,8 @@ class ParticleFilter {
   // A place lying mostly in unobserved space whose observed points fit at least this well is at the frontier of
   // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
   static constexpr double kFrontierMinInliers = 0.8;
+  static constexpr std::size_t kMinEvidencePoints = 32;
+  static constexpr double kTrackRadius = 1.0;  // m: particles this near the predicted pose belong to the track
   static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
   std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
   bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start
@@ -377,6 +393,13 @@ class ParticleFilter {
   // The dominant hypothesis's per-point log-likelihoods and map evidence flags at its refined pose (this update).
   std::vector<double> top_log_;
   std::vector<std::uint8_t> top_observed_;
+  std::vector<Eigen::Vector3f> evidence_points_;  // weigh_track_on_evidence's selection and its scratch
+  std::vector<std::uint8_t> evidence_observed_;
+  std::vector<float> scan_log_weight_;       // the whole scan's log-weights, kept over the evidence points' pass
+  std::vector<double> evidence_log_weight_;  // the evidence points' log-weights (then posteriors) of the track's
+  std::vector<std::uint8_t> in_track_;       // particles near the predicted pose
+  bool track_reweighed_ = false;             // this update weighed the track on the evidence points
+  bool dominant_concentrated_ = false;       // the last update's dominant hypothesis held the belief, concentrated
 
   MotionPrediction motion_;  // the motion model's state between updates
   bool force_update_ = false;
