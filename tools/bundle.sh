@@ -43,11 +43,13 @@ cat >"$out/tsdf-mcl" <<'SCRIPT'
 #!/bin/sh
 # tsdf-mcl from this folder: its own libraries, the machine's GPU driver. The Vulkan loader is pointed at the
 # NVIDIA ICD where one is installed (desktop drivers: /usr/share/vulkan/icd.d or /etc/vulkan/icd.d; Jetson's
-# JetPack: /etc/vulkan/icd.d/nvidia_icd.json) unless VK_ICD_FILENAMES or VK_DRIVER_FILES is already set; without
-# one the loader searches its usual places and `--backend auto` falls back to the CPU where it finds no GPU.
+# JetPack: /etc/vulkan/icd.d/nvidia_icd.json; a container with the driver mounted under /usr/local/nvidia:
+# /usr/local/nvidia/share/vulkan/icd.d) unless VK_ICD_FILENAMES or VK_DRIVER_FILES is already set; without one
+# the loader searches its usual places and `--backend auto` falls back to the CPU where it finds no GPU.
 here=$(cd "$(dirname "$0")" && pwd)
 if [ -z "${VK_ICD_FILENAMES:-}" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
-  for dir in ${TSDF_MCL_ICD_DIRS:-/etc/vulkan/icd.d /usr/share/vulkan/icd.d /usr/local/share/vulkan/icd.d}; do
+  icd_dirs="/etc/vulkan/icd.d /usr/share/vulkan/icd.d /usr/local/share/vulkan/icd.d /usr/local/nvidia/share/vulkan/icd.d"
+  for dir in ${TSDF_MCL_ICD_DIRS:-$icd_dirs}; do
     for icd in "$dir"/nvidia_icd*.json; do
       if [ -f "$icd" ]; then
         VK_ICD_FILENAMES=$icd

@@ -318,7 +318,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   predict(n, delta, motion_.elapsed(time));
   step.timings.motion_ms = t0.ms();
   const WeightSummary summary = weigh_scan(n, points, step);
-  weigh_track_on_evidence(n, points, last_estimate_pose_ * delta, step);
+  weigh_track_on_evidence(n, points, delta, step);
 
   t0 = Stopwatch();
   const bool was_localized = estimate_.std_position <= kVelocityMaxStd;

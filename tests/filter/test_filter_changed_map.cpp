@@ -220,12 +220,32 @@ std::vector<Pose> rising_through_the_office() {
   return poses;
 }
 
-// How many poses from the take-off on have the estimate's height more than 0.15 m off (of `poses`), the frontier's
-// points weighed (as before) or not (the default).
-std::size_t sunk_poses(bool frontier_evidence, std::size_t& poses) {
-  const std::vector<Box> boxes = test::office_boxes();
-  const TsdfMap map =
-      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(14.2f, 9.2f, 1.6f));
+// The office up to `mapped_height` (a ground robot's view) and, with `twin`, its twin 16 m east whole (mapped from
+// higher up), built like test::make_box_map.
+constexpr float kTwinShift = 16.0f;
+TsdfMap office_map_up_to(float mapped_height, const std::vector<Box>& boxes, bool twin) {
+  const auto observed = [&](const Eigen::Vector3f& c) {
+    const bool in_twin = c.x() > 15.0f;  // the office ends at x = 14.2 m, the twin starts at 15.8 m
+    return in_twin || c.z() <= mapped_height;
+  };
+  return test::make_box_map_where(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f),
+                                  Eigen::Vector3f(twin ? 14.2f + kTwinShift : 14.2f, 9.2f, 2.8f), observed);
+}
+
+// The flight from the take-off on (`poses`): how many poses have the estimate's height more than 0.15 m off (`sunk`)
+// or the estimate more than 1 m off (`off`), and on how many places more than 2 m away hold a fifth of the belief or
+// more (`shared`); the frontier's points weighed (as before) or not (the default). With `twin`, the map holds a twin
+// office 16 m east whole and the office only up to 1.3 m: above that the twin explains more of each scan.
+struct Flight {
+  std::size_t poses = 0, sunk = 0, off = 0, shared = 0;
+};
+Flight fly_above_the_mapped_band(bool frontier_evidence, bool twin = false) {
+  std::vector<Box> boxes = test::office_boxes();
+  if (twin) {
+    const Eigen::Vector3f shift(kTwinShift, 0.0f, 0.0f);
+    for (const Box& b : test::office_boxes()) boxes.push_back(Box{b.lo + shift, b.hi + shift});
+  }
+  const TsdfMap map = office_map_up_to(twin ? 1.3f : 1.6f, boxes, twin);
   const std::vector<Pose> truth = rising_through_the_office();
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 23);
   const Scans scans = scan_route(boxes, truth, 4);
@@ -235,25 +255,49 @@ std::size_t sunk_poses(bool frontier_evidence, std::size_t& poses) {
   ParticleFilter filter(map, *eval, p, 256);
   filter.initialize_local(truth[0]);
   const FilterRun r = run(filter, scans, truth, odometry);
-  std::size_t sunk = 0;
-  poses = 0;
-  for (std::size_t i = 12; i < truth.size(); ++i, ++poses) {
+  Flight f;
+  for (std::size_t i = 12; i < truth.size(); ++i, ++f.poses) {
     const double dz = r.steps[i].estimate.pose.translation().z() - truth[i].translation().z();
-    EXPECT_LT(test::translation_error(r.steps[i].estimate.pose, truth[i]), 1.0) << "step " << i;
-    sunk += std::abs(dz) > 0.15 ? 1 : 0;
+    f.sunk += std::abs(dz) > 0.15 ? 1 : 0;
+    f.off += test::translation_error(r.steps[i].estimate.pose, truth[i]) > 1.0 ? 1 : 0;
+    double elsewhere = 0.0;
+    for (const Hypothesis& h : r.steps[i].estimate.hypotheses) {
+      if ((h.pose.translation() - truth[i].translation()).norm() > 2.0) elsewhere += h.weight;
+    }
+    f.shared += elsewhere >= 0.2 ? 1 : 0;
   }
-  return sunk;
+  return f;
 }
 
 TEST(ChangedMap, ATrackAboveTheMappedBandKeepsItsHeight) {
-  std::size_t poses = 0;
-  const std::size_t with_frontier = sunk_poses(true, poses);
-  const std::size_t without = sunk_poses(false, poses);
-  std::fprintf(stderr, "poses over 0.15 m too low or high, of %zu: frontier points weighed %zu, dropped %zu\n", poses,
-               with_frontier, without);
-  // Measured: 1 (a challenger at the mapped band's height holds 41 % of the belief on that scan) against 34 of 34.
-  EXPECT_LE(without, 2u);
-  EXPECT_GE(with_frontier, poses / 2) << "the scene no longer shows the sinking";
+  const Flight before = fly_above_the_mapped_band(true);
+  const Flight now = fly_above_the_mapped_band(false);
+  std::fprintf(stderr, "poses over 0.15 m too low or high, of %zu: frontier points weighed %zu, dropped %zu\n",
+               now.poses, before.sunk, now.sunk);
+  // Measured: 0-1 against 34 of 34.
+  EXPECT_EQ(now.off, 0u);
+  EXPECT_LE(now.sunk, 2u);
+  EXPECT_GE(before.sunk, before.poses / 2) << "the scene no longer shows the sinking";
+}
+
+// The same flight beside a look-alike that the map holds whole: above the office's mapped band the twin explains more
+// of each scan and draws belief (a fifth or more on most poses), so no place dominates. Each place is weighed on its
+// own points (in the avz building with a skipped room, weighing only a dominant, concentrated place's let a drone's
+// track sink 0.25 m while a look-alike 11 m away held up to half of the belief). The track holds its height and the
+// estimate stays with it; with the frontier's points weighed, the estimate sank or moved to the twin.
+TEST(ChangedMap, ATrackSharedWithALookAlikeKeepsItsHeight) {
+  const Flight before = fly_above_the_mapped_band(true, true);
+  const Flight now = fly_above_the_mapped_band(false, true);
+  std::fprintf(stderr,
+               "twin offices, of %zu poses: frontier points weighed: %zu over 1 m off, %zu over 0.15 m in height, the "
+               "twin holding a fifth or more on %zu; dropped: %zu, %zu, %zu\n",
+               now.poses, before.off, before.sunk, before.shared, now.off, now.sunk, now.shared);
+  // Measured: 0, 0, 25 against 19, 15, 29 (the sanitizer build, whose floats round otherwise: 0, 2, 25 against 0, 13,
+  // 29). This revision and the last alike: the scene guards the rule, it does not reproduce the avz drone's sinking.
+  EXPECT_EQ(now.off, 0u);
+  EXPECT_LE(now.sunk, 3u);
+  EXPECT_GE(now.shared, now.poses / 3) << "the twin no longer draws belief";
+  EXPECT_GE(before.off + before.sunk, before.poses / 4) << "the scene no longer shows the hazard";
 }
 
 // The office after mapping: the cabinet and the table moved, the sideboard gone, a new doorway in the wall

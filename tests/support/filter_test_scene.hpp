@@ -4,6 +4,7 @@
 // drifting odometry track. Builds in well under a second.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "tsdf_mcl/core/pose.hpp"
@@ -93,10 +94,13 @@ inline float scene_distance(const std::vector<Box>& boxes, const Eigen::Vector3f
   return d;
 }
 
-// Known: within the building's hull [hull_lo, hull_hi] and no deeper than the truncation band inside a solid.
-// Far free space ends up in free blocks after compaction, as in maps built from scans.
-inline TsdfMap make_box_map(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
-                            const Eigen::Vector3f& hull_hi, float voxel = 0.1f, float truncation = 0.3f) {
+// Known: within the building's hull [hull_lo, hull_hi], where `observed` says so (what the mapping run saw), and no
+// deeper than the truncation band inside a solid. Far free space ends up in free blocks after compaction, as in maps
+// built from scans.
+inline TsdfMap make_box_map_where(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
+                                  const Eigen::Vector3f& hull_hi,
+                                  const std::function<bool(const Eigen::Vector3f&)>& observed, float voxel = 0.1f,
+                                  float truncation = 0.3f) {
   const Eigen::Vector3f margin = Eigen::Vector3f::Constant(0.4f);
   TsdfMap map = TsdfMap::covering(voxel, truncation, hull_lo - margin, hull_hi + margin);
   const Eigen::Vector3i lo = map.min_block() * TsdfMap::kBlockSize;
@@ -105,13 +109,19 @@ inline TsdfMap make_box_map(const std::vector<Box>& boxes, const Eigen::Vector3f
     for (int y = lo.y(); y < hi.y(); ++y)
       for (int x = lo.x(); x < hi.x(); ++x) {
         const Eigen::Vector3f c = map.center_of({x, y, z});
-        if ((c.array() < hull_lo.array()).any() || (c.array() > hull_hi.array()).any()) continue;
+        if ((c.array() < hull_lo.array()).any() || (c.array() > hull_hi.array()).any() || !observed(c)) continue;
         const float d = scene_distance(boxes, c);
         if (d < -truncation) continue;
         map.set_distance({x, y, z}, d);
       }
   map.compact();
   return map;
+}
+
+inline TsdfMap make_box_map(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
+                            const Eigen::Vector3f& hull_hi, float voxel = 0.1f, float truncation = 0.3f) {
+  return make_box_map_where(
+      boxes, hull_lo, hull_hi, [](const Eigen::Vector3f&) { return true; }, voxel, truncation);
 }
 
 inline TsdfMap make_office_map(float voxel = 0.1f, float truncation = 0.3f) {

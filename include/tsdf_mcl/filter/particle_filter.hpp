@@ -253,15 +253,19 @@ class ParticleFilter {
   void predict(std::size_t n, const Pose& delta, double dt);
   // Sensor update: the scan's likelihood of every particle (subset first where configured).
   WeightSummary weigh_scan(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
-  // Unknown is unknown within a concentrated belief (one dominant hypothesis, spread under a truncation length): its
-  // particles (those near the predicted pose) are weighed against each other on the points that land, at that pose,
-  // clear of space the map never observed and of its frontier (drop_frontier_points), so none gains by pushing the scan
-  // out of the unobserved band (a drone whose map's walls end where the mapping robot's view did sank towards the
-  // floor). The cloud's total against other places stays the whole scan's (and so do the tempering, recovery's fit and
-  // the hypotheses' evidence): the points its place never observed are evidence against a look-alike that did. Sets
-  // step.weighed_points (0 where the whole scan weighs every particle).
-  void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& predicted,
+  // Unknown is unknown within each place (once there is a track: a few hypotheses that pass the convergence test's
+  // spread, and the kept track's predicted pose): a place's particles (those near its predicted pose) are weighed
+  // against each other on the points that land, at that pose, clear of space the map never observed and of its frontier
+  // (drop_frontier_points), so none gains by pushing the scan out of the unobserved band (a drone whose map's walls
+  // end where the mapping robot's view did sank towards the floor). Each place's total against the others stays the
+  // whole scan's (and so do the tempering, recovery's fit and the hypotheses' evidence): the points a place never
+  // observed are evidence against a look-alike that did. Sets step.weighed_points (0 where the whole scan weighs
+  // every particle).
+  void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta,
                                FilterStep& step);
+  // The predicted poses of the places weigh_track_on_evidence weighs on their own points (none before there is a
+  // track to keep, or while the belief is spread).
+  std::vector<Pose> evidence_centres(const Pose& delta, double reach) const;
   // Evidence: tempered weights, the hypotheses and their paired evidence, the fit recovery follows and the
   // implausible-fit test; returns the share of the next generation a wrong lock sends to a new search (0: none).
   double weigh_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const WeightSummary& summary,
@@ -273,8 +277,8 @@ class ParticleFilter {
   void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras,
                        FilterStep& step);
   void prepare_weights(std::size_t n, FilterStep& step);
-  // The track's particles' posterior log-weights from the evidence points (weigh_track_on_evidence), tempered by
-  // `beta` like the whole scan's, their log-sum-exp kept; then weights_ again.
+  // Each place's particles' posterior log-weights from its evidence points (weigh_track_on_evidence), tempered by
+  // `beta` like the whole scan's, the place's log-sum-exp kept; then weights_ again.
   void weigh_track_within(std::size_t n, double beta);
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
@@ -374,7 +378,8 @@ class ParticleFilter {
   // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
   static constexpr double kFrontierMinInliers = 0.8;
   static constexpr std::size_t kMinEvidencePoints = 32;
-  static constexpr double kTrackRadius = 1.0;  // m: particles this near the predicted pose belong to the track
+  static constexpr double kTrackRadius = 1.0;           // m: particles this near a place's predicted pose belong to it
+  static constexpr std::size_t kMaxEvidencePlaces = 4;  // places weighed on their own points, at most
   static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
   std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
   bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start
@@ -395,10 +400,11 @@ class ParticleFilter {
   std::vector<std::uint8_t> top_observed_;
   std::vector<Eigen::Vector3f> evidence_points_;  // weigh_track_on_evidence's selection and its scratch
   std::vector<std::uint8_t> evidence_observed_;
-  std::vector<float> scan_log_weight_;       // the whole scan's log-weights, kept over the evidence points' pass
-  std::vector<double> evidence_log_weight_;  // the evidence points' log-weights (then posteriors) of the track's
-  std::vector<std::uint8_t> in_track_;       // particles near the predicted pose
-  bool track_reweighed_ = false;             // this update weighed the track on the evidence points
+  std::vector<double> evidence_log_weight_;  // each place's particles on its evidence points (then posteriors)
+  std::vector<std::int32_t> place_of_;       // each particle's place (evidence_centres' index), -1: none
+  std::vector<std::uint32_t> members_;       // one place's particles, gathered into the spare set
+  std::size_t places_reweighed_ = 0;         // places [0, this) may hold particles weighed on their own points
+  bool track_reweighed_ = false;             // this update weighed some place on its evidence points
   bool dominant_concentrated_ = false;       // the last update's dominant hypothesis held the belief, concentrated
 
   MotionPrediction motion_;  // the motion model's state between updates
