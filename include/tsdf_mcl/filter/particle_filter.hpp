@@ -182,7 +182,7 @@ struct FilterStep {
   std::size_t kld_bins = 0;        // bins occupied by the weighted set (when resampled)
   std::size_t injected = 0;        // random particles from recovery
   std::size_t points = 0;
-  std::size_t weighed_points = 0;  // of them, a concentrated cloud's were weighed on among themselves (0: all)
+  std::size_t weighed_points = 0;  // of them, the first place weighed on its own (the track's) took these (0: all)
   double ess = 0.0;                // effective sample size after tempering
   double tempering = 1.0;          // the adaptive factor applied to the log-likelihoods
   double fit = 0.0;                // mean per-point geometric-mean likelihood over particles (diagnostic)
