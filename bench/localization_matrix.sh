@@ -137,7 +137,15 @@ row = {"scene": sys.argv[2], "lidar": sys.argv[3], "platform": sys.argv[4], "see
        "convergence_time_s": (m.get("convergence") or {}).get("time_s"),
        "localized_fraction": round(m["localized_fraction"], 3), "ate_m": after.get("ate_rmse_m"),
        "rotation_rmse_deg": after.get("rotation_rmse_deg"), "claimed_converged_scans": false.get("claimed_converged_scans"),
-       "false_claims": false.get("false_claims"), "scans": m["scans"]}
+       "false_claims": false.get("false_claims"), "scans": m["scans"],
+       "lost_tracks": (m.get("lost_tracks") or {}).get("episodes")}
+# The symmetric building: the scans from the landmark's first sighting on are what a localizer can be judged on
+# (before it, which wing is right is a guess); none when the run never sees it.
+landmark = m.get("after_landmark")
+if landmark is not None:
+    row["landmark_seen_scan"] = landmark["first_seen_scan"]
+    row["after_landmark_localized"] = None if landmark["localized_fraction"] is None else round(landmark["localized_fraction"], 3)
+    row["after_landmark_lost_tracks"] = landmark["lost_tracks"]
 print(json.dumps(row))
 EOF
       done
@@ -152,10 +160,26 @@ ok = [r for r in rows if r.get("converged") and not r.get("false_claims")]
 false = [r for r in rows if r.get("false_claims")]
 print(f"matrix: {len(rows)} runs; {len(ok)} converged right with no false claim; "
       f"{len(false)} with false convergence claims; {len(rows) - len(ok) - len(false)} not localized")
+# Issue 16's targets (lost track: > 1 m off for over 2 s after having been localized). Where a run has a landmark,
+# over the scans from its first sighting on; a run that never sees it is a guess between mirror images.
+judged = [r for r in rows if "error" not in r and r.get("landmark_seen_scan", 0) is not None]
+def share(r): return r.get("after_landmark_localized", r.get("localized_fraction"))
+def lost(r): return r.get("after_landmark_lost_tracks", r.get("lost_tracks"))
+guesses = len([r for r in rows if "landmark_seen_scan" in r and r["landmark_seen_scan"] is None])
+unjudged = f" ({guesses} more never see the landmark that tells the mirror images apart)" if guesses else ""
+print(f"matrix: over the {len(judged)} runs that can tell where they are{unjudged}: "
+      f"{len([r for r in judged if (lost(r) or 0) > 0])} with a lost track, "
+      f"{len([r for r in judged if (share(r) or 0) >= 0.95])} at least 95 % localized")
 fmt = lambda v, f: "-" if v is None else format(v, f)
 for r in rows:
+    landmark = ""
+    if "landmark_seen_scan" in r:
+        landmark = ("; never sees the landmark" if r["landmark_seen_scan"] is None else
+                    f"; from the landmark on localized {fmt(r.get('after_landmark_localized'), '.2f')}, "
+                    f"lost tracks {r.get('after_landmark_lost_tracks')}")
     print(f"  {r['scene']:10s} {r['lidar']:7s} {r['platform']:9s} seed {r['seed']}: "
           f"{'converged' if r.get('converged') else 'NOT converged'} at {fmt(r.get('convergence_time_s'), '.1f')} s, "
           f"localized {fmt(r.get('localized_fraction'), '.2f')}, ATE {fmt(r.get('ate_m'), '.3f')} m, "
-          f"false claims {r.get('false_claims')} of {r.get('claimed_converged_scans')}, {r.get('localize_s')} s")
+          f"false claims {r.get('false_claims')} of {r.get('claimed_converged_scans')}, "
+          f"lost tracks {r.get('lost_tracks')}{landmark}, {r.get('localize_s')} s")
 EOF

@@ -9,6 +9,37 @@
 
 namespace tsdf_mcl {
 
+namespace {
+
+// Episodes of being far off after having been localized, each counted once it has lasted lost_duration.
+void count_lost_tracks(TrajectoryMetrics& m, const MetricsOptions& options) {
+  bool found = false;
+  std::size_t off_since = 0;
+  bool off = false, counted = false;
+  for (std::size_t i = 0; i < m.errors.size(); ++i) {
+    const PoseError& pe = m.errors[i];
+    found = found || pe.localized;
+    if (!found || pe.translation_norm <= options.lost_translation) {
+      off = false;
+      continue;
+    }
+    if (!off) {
+      off = true;
+      counted = false;
+      off_since = i;
+    }
+    if (!counted && pe.time - m.errors[off_since].time > options.lost_duration) {
+      counted = true;
+      if (m.lost_tracks++ == 0) {
+        m.first_lost_index = off_since;
+        m.first_lost_time = m.errors[off_since].time - m.errors.front().time;
+      }
+    }
+  }
+}
+
+}  // namespace
+
 std::optional<std::size_t> nearest_stamp(const std::vector<double>& times, double time, double tolerance) {
   const auto it = std::lower_bound(times.begin(), times.end(), time);
   std::size_t best = times.size();
@@ -81,6 +112,7 @@ TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, 
     }
   }
 
+  count_lost_tracks(m, options);
   std::size_t localized = 0;
   for (const PoseError& pe : m.errors) localized += pe.localized ? 1 : 0;
   m.localized_fraction = static_cast<double>(localized) / static_cast<double>(m.errors.size());

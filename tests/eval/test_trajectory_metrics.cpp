@@ -101,5 +101,31 @@ TEST(TrajectoryMetrics, CountsFalseConvergenceClaims) {
   EXPECT_THROW(evaluate_trajectory(est, t.times, t.poses, MetricsOptions{}, &claims), Error);
 }
 
+// 0.5 s between estimates. Far off at first (not found yet: no lost track); localized from 3; 5 m off at 6..10
+// (2 s from the first to the last: not longer than lost_duration) and at 13..18 (2.5 s: a lost track, counted
+// once); 0.9 m off at 20..25 is within lost_translation.
+TEST(TrajectoryMetrics, CountsLostTracksOnlyAfterTheTrackWasFound) {
+  const Truth t = straight_line(30);
+  std::vector<StampedPose> est;
+  for (std::size_t i = 0; i < 30; ++i) {
+    Pose p = t.poses[i];
+    if (i < 3 || (i >= 6 && i <= 10) || (i >= 13 && i <= 18)) p.translation() += Eigen::Vector3d(5.0, 0, 0);
+    if (i >= 20 && i <= 25) p.translation() += Eigen::Vector3d(0, 0.9, 0);
+    est.push_back({t.times[i], p});
+  }
+  const TrajectoryMetrics m = evaluate_trajectory(est, t.times, t.poses);
+  EXPECT_EQ(m.lost_tracks, 1u);
+  EXPECT_EQ(m.first_lost_index, 13u);
+  EXPECT_NEAR(m.first_lost_time, 6.5, 1e-9);
+  // Two more estimates off join both stretches into one episode (6..18): still one lost track, from 6 on.
+  for (std::size_t i : {11u, 12u}) est[i].pose.translation() += Eigen::Vector3d(0, 3.0, 0);
+  const TrajectoryMetrics joined = evaluate_trajectory(est, t.times, t.poses);
+  EXPECT_EQ(joined.lost_tracks, 1u);
+  EXPECT_EQ(joined.first_lost_index, 6u);
+  MetricsOptions strict;
+  strict.lost_translation = 0.5;  // the 0.9 m stretch (2.5 s) counts too
+  EXPECT_EQ(evaluate_trajectory(est, t.times, t.poses, strict).lost_tracks, 2u);
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

@@ -292,6 +292,50 @@ TEST(MotionGate, HoldsSmallMotionsAndPropagatesTheEstimate) {
   EXPECT_GE(held, 7u);
 }
 
+// Roughening serves a sparse belief. Started around a known pose, the belief is concentrated after its first update,
+// and its particles then move exactly as a filter's without roughening (the same draws of the same noise); started
+// spread over the room, they are roughened before they first converge.
+TEST(Roughening, StopsWhileTheDominantHypothesisHoldsTheBelief) {
+  const World& w = world();
+  struct Run {
+    bool concentrated = false;
+    bool converged = false;
+    std::vector<float> xyz;  // the particles after the second update
+  };
+  const auto run = [&](const LocalInitSpread& spread, bool roughening) {
+    auto eval = cpu_evaluator(w.map);
+    FilterParameters p = ground_robot();
+    p.initial_particles = 2000;
+    p.kld.min_particles = 2000;
+    p.kld.max_particles = 2000;
+    if (!roughening) p.roughening_xyz = p.roughening_angle = 0.0;
+    ParticleFilter filter(w.map, *eval, p, 256);
+    filter.initialize_local(w.truth[0], spread);
+    Run r;
+    const FilterStep first = filter.update(0.0, w.points[0], w.odometry[0]);
+    r.concentrated = first.concentrated;
+    r.converged = filter.update(kScanPeriod, w.points[1], w.odometry[1]).estimate.converged;
+    const ParticleArrays a = filter.particles();
+    for (std::size_t i = 0; i < filter.particle_count(); ++i) r.xyz.insert(r.xyz.end(), {a.x[i], a.y[i], a.z[i]});
+    return r;
+  };
+  LocalInitSpread tight;
+  tight.sigma_xy = 0.05;
+  tight.sigma_z = 0.02;
+  tight.sigma_yaw = 0.02;
+  tight.sigma_roll_pitch = 0.01;
+  const Run on = run(tight, true);
+  ASSERT_TRUE(on.concentrated);
+  ASSERT_FALSE(on.converged);  // roughening would still be due
+  EXPECT_EQ(on.xyz, run(tight, false).xyz);
+  LocalInitSpread wide;
+  wide.sigma_xy = 2.0;
+  wide.sigma_yaw = M_PI;
+  const Run spread_on = run(wide, true);
+  ASSERT_FALSE(spread_on.concentrated);
+  EXPECT_NE(spread_on.xyz, run(wide, false).xyz);
+}
+
 std::vector<Pose> global_estimates(std::uint64_t seed, int threads, std::vector<std::size_t>* counts) {
   const World& w = world();
   auto eval = cpu_evaluator(w.map, threads);

@@ -2,6 +2,7 @@
 #include <filesystem>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "tsdf_mcl/render/image.hpp"
 #include "tsdf_mcl/io/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/render/plot.hpp"
 #include "tsdf_mcl/eval/trajectory_metrics.hpp"
 
@@ -116,6 +118,14 @@ void print_verdict(const TrajectoryMetrics& m, const MetricsOptions& mo, const s
                  m.errors.size(), m.errors.back().translation_norm, m.errors.back().rotation * kDeg,
                  100.0 * m.localized_fraction);
   }
+  if (m.lost_tracks > 0) {
+    const std::string times = m.lost_tracks == 1 ? "once" : std::to_string(m.lost_tracks) + " times";
+    std::fprintf(stderr,
+                 "evaluate: LOST TRACK: more than %.1f m off for over %.1f s after having been localized, %s (first "
+                 "from scan %zu, %.1f s)\n",
+                 mo.lost_translation, mo.lost_duration, times.c_str(), m.errors[m.first_lost_index].truth_index,
+                 m.first_lost_time);
+  }
   if (!m.has_claims) {
     std::fprintf(stderr, "evaluate: no report.json beside the estimate: the filter's converged flags not checked\n");
   } else if (m.claimed_converged == 0) {
@@ -150,6 +160,11 @@ MetricsOptions metrics_options(const Options& o) {
       angle_in_degrees(o.text("false_convergence_rotation"), "--false_convergence_rotation", M_PI);
   if (!(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
     throw Error("false-convergence thresholds must be positive");
+  }
+  mo.lost_translation = o.number("lost_translation");
+  mo.lost_duration = o.number("lost_duration");
+  if (!(mo.lost_translation > 0.0) || !(mo.lost_duration >= 0.0) || !std::isfinite(mo.lost_duration)) {
+    throw Error("--lost_translation must be positive and --lost_duration a non-negative number of seconds");
   }
   return mo;
 }
@@ -217,7 +232,99 @@ nlohmann::json metrics_json(const TrajectoryMetrics& m, const MetricsOptions& mo
     j["after_convergence"] = nullptr;
   }
   add_claims_json(j, m, mo, report_file);
+  j["lost_tracks"] = {
+      {"episodes", m.lost_tracks},
+      {"first_scan", m.lost_tracks > 0 ? nlohmann::json(m.errors[m.first_lost_index].truth_index) : nlohmann::json()},
+      {"first_time_s", m.lost_tracks > 0 ? nlohmann::json(m.first_lost_time) : nlohmann::json()},
+      {"thresholds", {{"translation_m", mo.lost_translation}, {"duration_s", mo.lost_duration}}}};
   return j;
+}
+
+// A simulated scene's landmark (simulate's simulation.json, the symmetric building's display cabinet): the one
+// thing that tells the building's mirror images apart. Before a run first sees it, which of two mirror poses is
+// right is a guess no localizer can do better than chance at; the estimates from that scan on are what a
+// localizer can be judged on.
+struct Landmark {
+  std::string name;
+  std::optional<std::size_t> first_seen_scan;  // none: the run never sees it
+};
+
+// The dataset's landmark, if simulate wrote one. A simulation.json that cannot be read is said and skipped: it
+// describes the run, it is not what evaluate measures.
+std::optional<Landmark> landmark_of(const Dataset& dataset) {
+  const std::filesystem::path file = dataset.dir() / "simulation.json";
+  std::error_code ec;
+  if (dataset.dir().empty() || !std::filesystem::is_regular_file(file, ec)) return std::nullopt;
+  try {
+    const nlohmann::json j =
+        nlohmann::json::parse(read_input_file(file, "simulation description", limits::kMaxTextFileBytes));
+    if (!j.is_object() || !j.contains("landmark") || !j["landmark"].is_object()) return std::nullopt;
+    const nlohmann::json& l = j["landmark"];
+    Landmark landmark;
+    landmark.name = l.value("name", std::string("landmark"));
+    const auto scan = l.find("first_seen_scan");
+    if (scan != l.end() && !scan->is_null()) {
+      if (!scan->is_number_unsigned()) throw Error("landmark.first_seen_scan is not a scan number");
+      landmark.first_seen_scan = scan->get<std::size_t>();
+    }
+    return landmark;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "evaluate: %s is not readable (%s): the landmark is not checked\n", file.c_str(),
+                 one_line(e.what()).c_str());
+    return std::nullopt;
+  }
+}
+
+// "after_landmark": the metrics of the estimates from the landmark's first sighting on (null figures where the run
+// never sees it or ends first).
+nlohmann::json landmark_json(const Landmark& landmark, const TrajectoryMetrics& m,
+                             const std::vector<StampedPose>& estimate, const std::vector<bool>* claims,
+                             const Dataset& dataset, const MetricsOptions& mo) {
+  nlohmann::json j = {{"landmark", landmark.name},     {"first_seen_scan", nullptr},
+                      {"first_seen_time_s", nullptr},  {"scans", 0},
+                      {"localized_fraction", nullptr}, {"localized_from", nullptr},
+                      {"lost_tracks", nullptr},        {"false_claims", nullptr}};
+  if (!landmark.first_seen_scan) return j;
+  std::vector<StampedPose> after;
+  std::vector<bool> after_claims;
+  for (std::size_t i = 0; i < m.errors.size(); ++i) {
+    if (m.errors[i].truth_index < *landmark.first_seen_scan) continue;
+    after.push_back(estimate[i]);
+    if (claims) after_claims.push_back((*claims)[i]);
+  }
+  j["first_seen_scan"] = *landmark.first_seen_scan;
+  if (*landmark.first_seen_scan < dataset.times().size()) {
+    j["first_seen_time_s"] = dataset.times()[*landmark.first_seen_scan] - m.errors.front().time;
+  }
+  if (after.empty()) return j;
+  const TrajectoryMetrics a =
+      evaluate_trajectory(after, dataset.times(), dataset.poses(), mo, claims ? &after_claims : nullptr);
+  j["scans"] = after.size();
+  j["localized_fraction"] = a.localized_fraction;
+  if (a.converged) {
+    j["localized_from"] = {{"scan", a.errors[a.convergence_index].truth_index},
+                           {"time_s", a.errors[a.convergence_index].time - m.errors.front().time}};
+  }
+  j["lost_tracks"] = a.lost_tracks;
+  if (a.has_claims) j["false_claims"] = a.false_convergence;
+  return j;
+}
+
+void print_landmark_verdict(const nlohmann::json& j) {
+  const std::string name = j["landmark"].get<std::string>();
+  if (j["first_seen_scan"].is_null()) {
+    std::fprintf(stderr,
+                 "evaluate: the run never sees the %s, the only thing that tells the building's mirror images apart: "
+                 "which of the two is right is a guess\n",
+                 name.c_str());
+    return;
+  }
+  if (j["localized_fraction"].is_null()) return;
+  std::fprintf(stderr,
+               "evaluate: from the first sight of the %s (scan %zu) on: %.1f %% of %zu scans localized, lost "
+               "tracks: %zu\n",
+               name.c_str(), j["first_seen_scan"].get<std::size_t>(), 100.0 * j["localized_fraction"].get<double>(),
+               j["scans"].get<std::size_t>(), j["lost_tracks"].get<std::size_t>());
 }
 
 }  // namespace
@@ -243,6 +350,8 @@ int run_evaluate(int argc, char** argv) {
           {"false_convergence_translation", "M", "1",
            "a converged flag is false where the estimate is off by more than this (m)"},
           {"false_convergence_rotation", "DEG", "10", "... or by more than this rotation (degrees, or e.g. 0.2rad)"},
+          {"lost_translation", "M", "1", "a lost track: after a localized estimate, more than this far off (m) ..."},
+          {"lost_duration", "S", "2", "... for longer than this (s)"},
       }),
       argc, argv, 2);
   if (o.help_requested()) {
@@ -264,12 +373,17 @@ int run_evaluate(int argc, char** argv) {
       evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo, report_file.empty() ? nullptr : &claims);
 
   nlohmann::json j = metrics_json(m, mo, estimate_file, dataset, report_file);
+  const std::optional<Landmark> landmark = landmark_of(dataset);
+  if (landmark) {
+    j["after_landmark"] = landmark_json(*landmark, m, estimate, report_file.empty() ? nullptr : &claims, dataset, mo);
+  }
   if (const auto plot = o.maybe("plot")) {
     plot_errors(m, mo, *plot);
     j["plot"] = *plot;
   }
   std::printf("%s\n", j.dump(2).c_str());
   print_verdict(m, mo, report_file);
+  if (landmark) print_landmark_verdict(j["after_landmark"]);
   return 0;
 }
 

@@ -16,6 +16,10 @@ struct MetricsOptions {
   // A claim of convergence is false when the estimate is off by more than either of these.
   double false_convergence_translation = 1.0;      // m
   double false_convergence_rotation = 0.17453293;  // rad (10°)
+  // A lost track: after an estimate was localized, the estimates stay more than lost_translation off for longer
+  // than lost_duration (the robot was found and then thrown away, not merely not found yet).
+  double lost_translation = 1.0;  // m
+  double lost_duration = 2.0;     // s
 };
 
 struct PoseError {
@@ -50,6 +54,10 @@ struct TrajectoryMetrics {
   double first_claim_time = 0.0;      // its time minus the first estimate's
   std::size_t first_false_index = 0;  // estimate index of the first false claim (if any)
   double first_false_time = 0.0;      // its time minus the first estimate's
+  // Lost tracks (MetricsOptions::lost_*): episodes, and the first estimate of the first one.
+  std::size_t lost_tracks = 0;
+  std::size_t first_lost_index = 0;
+  double first_lost_time = 0.0;  // its time minus the first estimate's
 };
 
 // The index of the stamp in `sorted_times` nearest to `time`, if it lies within `tolerance` (or within 1e-6 s: an

@@ -107,7 +107,8 @@ struct FilterParameters {
   double update_min_d = 0.1;  // m
   double update_min_a = 0.1;  // rad
   // Until the filter first converges after an initialization, every update adds a random walk of these
-  // standard deviations per axis on top of the motion noise, and a scan the motion gate would hold is still an
+  // standard deviations per axis on top of the motion noise (not while the dominant hypothesis holds the belief,
+  // concentrated: docs/filter.md, the drone's height), and a scan the motion gate would hold is still an
   // update once roughening_interval has passed since the last one. A global belief is sparse: its particles
   // nearest the true pose are typically decimetres and degrees off, where the likelihood of hundreds of points
   // cannot tell them from a wrong place. Roughening lets them climb the likelihood over a few scans before
