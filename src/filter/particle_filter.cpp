@@ -12,6 +12,7 @@
 #include "tsdf_mcl/filter/hypothesis_weighting.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
 #include "tsdf_mcl/filter/scan_fit.hpp"
+#include "tsdf_mcl/filter/scan_gravity.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -53,6 +54,8 @@ void FilterParameters::validate() const {
   if (!(hypothesis_min_weight > 0.0 && hypothesis_min_weight <= 1.0))
     throw Error("hypothesis_min_weight must lie in (0, 1]");
   if (!(inlier_distance > 0.0f) || !std::isfinite(inlier_distance)) throw Error("inlier_distance must be positive");
+  if (!(wall_tilt_information >= 0.0) || !std::isfinite(wall_tilt_information))
+    throw Error("wall_tilt_information must not be negative");
   if (!(recovery_min_inliers >= 0.0 && recovery_min_inliers <= 1.0))
     throw Error("recovery_min_inliers must lie in [0, 1]");
   if (!(challenger_interval >= 0.0) || !std::isfinite(challenger_interval))
@@ -97,6 +100,11 @@ GlobalProposal& ParticleFilter::proposal() {
   if (!proposal_)
     proposal_ = std::make_unique<GlobalProposal>(map_, params_.global_init, params_.global_search.proposal);
   return *proposal_;
+}
+
+WallTilt ParticleFilter::walls_at(const Pose& pose) {
+  return select_walls(scan_normals_, pose, proposal().map_up().cast<double>(),
+                      wall_information(params_.wall_tilt_information, scan_points_));
 }
 
 std::size_t ParticleFilter::free_space_voxels() { return proposal().free_space().candidate_voxels(); }
@@ -322,6 +330,11 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   predict(n, delta, motion_.elapsed(time));
   step.timings.motion_ms = t0.ms();
   const WeightSummary summary = weigh_scan(n, points, step);
+  t0 = Stopwatch();
+  scan_normals_.clear();
+  scan_points_ = points.size();
+  if (params_.wall_tilt_information > 0.0) scan_normals_ = planar_normals(extras.dense ? *extras.dense : points);
+  step.timings.walls_ms = t0.ms();
   weigh_track_on_evidence(n, points, delta, step);
 
   t0 = Stopwatch();

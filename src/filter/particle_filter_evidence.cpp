@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -67,22 +68,23 @@ std::vector<std::size_t> heaviest_particles(const std::int32_t* group, const dou
 Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
                      const std::vector<std::size_t>& heaviest, std::size_t n,
                      const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance,
-                     float frontier_reach) {
+                     float frontier_reach, const std::function<WallTilt(const Pose&)>& walls_at) {
   struct Start {
     std::size_t hypothesis;
     Pose pose;
     double total;
     std::vector<double> log;
+    WallTilt walls;
   };
   constexpr double kNone = -std::numeric_limits<double>::infinity();
   std::vector<Start> starts;
   for (std::size_t r = 0; r < h.size(); ++r) {
-    starts.push_back(Start{r, h[r].pose, kNone, {}});
+    starts.push_back(Start{r, h[r].pose, kNone, {}, walls_at(h[r].pose)});
     if (heaviest[r] < n) {
       Pose best = Pose::Identity();
       best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
       best.translation() = particles.position(heaviest[r]).cast<double>();
-      starts.push_back(Start{r, best, kNone, {}});
+      starts.push_back(Start{r, best, kNone, {}, walls_at(best)});
     }
   }
   // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
@@ -90,7 +92,7 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
 #pragma omp parallel for schedule(dynamic)
   for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
     Start& s = starts[static_cast<std::size_t>(ss)];
-    s.pose = refine_pose(map, s.pose, points);
+    s.pose = refine_pose(map, s.pose, points, 6, &s.walls);
     const Eigen::Quaternionf q(Eigen::Quaterniond(s.pose.linear()).cast<float>());
     point_log_likelihoods(map, plain, s.pose.translation().cast<float>(), q, points, s.log);
     s.total = 0.0;
@@ -139,9 +141,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
-  Places places =
-      refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
-                    points, plain, params_.inlier_distance, frontier_reach());
+  Places places = refine_places(
+      map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n, points,
+      plain, params_.inlier_distance, frontier_reach(), [this](const Pose& pose) { return walls_at(pose); });
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
@@ -399,7 +401,9 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
   track_followed_ = false;
   if (!keeper_.active() || estimate_.hypotheses.empty()) return;
   const Hypothesis& top = estimate_.hypotheses.front();
-  const Pose continuation = refine_pose(map_, keeper_.predict(delta), points);
+  const Pose predicted = keeper_.predict(delta);
+  const WallTilt walls = walls_at(predicted);
+  const Pose continuation = refine_pose(map_, predicted, points, 6, &walls);
   const ConvergenceOptions& c = params_.convergence;
   const bool continues = (top.pose.translation() - continuation.translation()).norm() <= c.max_jump_m &&
                          rotation_angle_between(top.pose.linear(), continuation.linear()) <= c.max_jump_rad;

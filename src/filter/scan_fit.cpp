@@ -222,7 +222,29 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
   return dropped;
 }
 
-Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations) {
+WallTilt select_walls(const std::vector<Eigen::Vector3f>& normals, const Pose& world_T_sensor,
+                      const Eigen::Vector3d& world_up, double information_per_wall, std::size_t full_walls) {
+  constexpr std::size_t kMinWalls = 30;
+  WallTilt walls;
+  walls.world_up = world_up.normalized();
+  if (!(information_per_wall > 0.0)) return walls;
+  const Eigen::Vector3d up_in_sensor = world_T_sensor.linear().transpose() * walls.world_up;
+  constexpr double kSinTolerance = 0.17364817766693033;  // sin 10°
+  for (const Eigen::Vector3f& n : normals) {
+    const Eigen::Vector3d u = n.cast<double>().normalized();
+    if (std::abs(u.dot(up_in_sensor)) < kSinTolerance) walls.normals.push_back(u);
+  }
+  if (walls.normals.size() < kMinWalls) {
+    walls.normals.clear();
+    return walls;
+  }
+  walls.information =
+      information_per_wall * std::min(1.0, static_cast<double>(full_walls) / static_cast<double>(walls.normals.size()));
+  return walls;
+}
+
+Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations,
+                 const WallTilt* walls) {
   if (points.empty() || map.empty()) return pose;
   const kernel::MapView view(map);
   const float h = 0.5f * map.voxel_size();
@@ -266,6 +288,15 @@ Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::
       ++used;
     }
     if (used < 12) return current;
+    if (walls != nullptr && walls->information > 0.0) {
+      // e = u . (R n); turning by dtheta adds u . (dtheta x R n) = dtheta . (R n x u).
+      for (const Eigen::Vector3d& n : walls->normals) {
+        const Eigen::Vector3d seen = current.linear() * n;
+        const Eigen::Vector3d j = seen.cross(walls->world_up);
+        jtj.bottomRightCorner<3, 3>() += walls->information * j * j.transpose();
+        jtr.tail<3>() += walls->information * j * walls->world_up.dot(seen);
+      }
+    }
     // Levenberg-Marquardt damping: the directions few points constrain (a level LiDAR's roll and pitch) move
     // little rather than wildly.
     Eigen::Matrix<double, 6, 6> damped = jtj;

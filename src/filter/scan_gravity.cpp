@@ -335,7 +335,22 @@ std::vector<Axis> candidate_axes(const std::vector<Eigen::Vector3d>& peaks, cons
   return axes;
 }
 
+std::vector<Eigen::Vector3f> towards_sensor(const std::vector<Patch>& patches) {
+  std::vector<Eigen::Vector3f> normals;
+  normals.reserve(patches.size());
+  for (const Patch& p : patches) {
+    const Eigen::Vector3d n = p.normal.dot(p.centre) > 0.0 ? -p.normal : p.normal;
+    normals.push_back(n.cast<float>());
+  }
+  return normals;
+}
+
 }  // namespace
+
+std::vector<Eigen::Vector3f> planar_normals(const std::vector<Eigen::Vector3f>& points, const GravityEstimation& o) {
+  o.validate();
+  return towards_sensor(planar_patches(points, o));
+}
 
 void GravityEstimation::validate() const {
   if (!(min_range >= 0.0f && max_range > min_range && std::isfinite(max_range))) {
@@ -358,10 +373,7 @@ GravityEstimate estimate_gravity(const std::vector<Eigen::Vector3f>& points, con
   GravityEstimate result;
   const std::vector<Patch> patches = planar_patches(points, o);
   result.planar_patches = patches.size();
-  for (const Patch& p : patches) {
-    const Eigen::Vector3d n = p.normal.dot(p.centre) > 0.0 ? -p.normal : p.normal;  // towards the sensor
-    result.normals.push_back(n.cast<float>());
-  }
+  result.normals = towards_sensor(patches);
   if (patches.size() < o.min_planar_patches) return result;
   const double tolerance = o.tolerance_deg * kDeg;
   std::vector<Eigen::Vector3d> normals;

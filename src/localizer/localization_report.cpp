@@ -65,6 +65,7 @@ nlohmann::json scan_json(const ScanRecord& r) {
                             {"reduce_host", t.reduce_ms},
                             {"tempering", t.tempering_ms},
                             {"hypotheses", t.hypotheses_ms},
+                            {"walls", t.walls_ms},
                             {"resample", t.resample_ms},
                             {"update_total", t.total_ms}});
   } else {

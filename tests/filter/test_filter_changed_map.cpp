@@ -23,10 +23,7 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kScanPeriod = 0.5;  // s
 
 using test::Box;
-
-Box box(float x0, float y0, float z0, float x1, float y1, float z1) {
-  return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
-}
+using test::box;
 
 std::unique_ptr<SensorEvaluator> cpu_evaluator(const TsdfMap& map) {
   EvaluatorOptions o;

@@ -19,10 +19,7 @@ namespace tsdf_mcl {
 namespace {
 
 using test::Box;
-
-Box box(float x0, float y0, float z0, float x1, float y1, float z1) {
-  return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
-}
+using test::box;
 
 // Two rooms side by side (x 0..6 and 6.2..12, a door in the wall between at y 2..3), a thick solid block in the
 // west room. The map holds the west room only: the east room is space the mapping run never observed.

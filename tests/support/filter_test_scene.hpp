@@ -18,12 +18,13 @@ struct Box {
   Eigen::Vector3f hi;
 };
 
+inline Box box(float x0, float y0, float z0, float x1, float y1, float z1) {
+  return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
+}
+
 // Three rooms of different sizes joined by doors, with pillars, a cabinet and a table: no two places look
 // alike, so global localization has one answer. Interior: x 0..14, y 0..9, z 0..2.6 (floor at z = 0).
 inline std::vector<Box> office_boxes() {
-  auto box = [](float x0, float y0, float z0, float x1, float y1, float z1) {
-    return Box{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
-  };
   return {
       box(-0.2f, -0.2f, -0.2f, 14.2f, 9.2f, 0.0f),  // floor
       box(-0.2f, -0.2f, 2.6f, 14.2f, 9.2f, 2.8f),   // ceiling
@@ -97,10 +98,11 @@ inline float scene_distance(const std::vector<Box>& boxes, const Eigen::Vector3f
 // Known: within the building's hull [hull_lo, hull_hi], where `observed` says so (what the mapping run saw), and no
 // deeper than the truncation band inside a solid. Far free space ends up in free blocks after compaction, as in maps
 // built from scans.
-inline TsdfMap make_box_map_where(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
-                                  const Eigen::Vector3f& hull_hi,
-                                  const std::function<bool(const Eigen::Vector3f&)>& observed, float voxel = 0.1f,
-                                  float truncation = 0.3f) {
+// The same from any signed distance function of the world position.
+inline TsdfMap make_map_where(const std::function<float(const Eigen::Vector3f&)>& distance,
+                              const Eigen::Vector3f& hull_lo, const Eigen::Vector3f& hull_hi,
+                              const std::function<bool(const Eigen::Vector3f&)>& observed, float voxel = 0.1f,
+                              float truncation = 0.3f) {
   const Eigen::Vector3f margin = Eigen::Vector3f::Constant(0.4f);
   TsdfMap map = TsdfMap::covering(voxel, truncation, hull_lo - margin, hull_hi + margin);
   const Eigen::Vector3i lo = map.min_block() * TsdfMap::kBlockSize;
@@ -110,12 +112,20 @@ inline TsdfMap make_box_map_where(const std::vector<Box>& boxes, const Eigen::Ve
       for (int x = lo.x(); x < hi.x(); ++x) {
         const Eigen::Vector3f c = map.center_of({x, y, z});
         if ((c.array() < hull_lo.array()).any() || (c.array() > hull_hi.array()).any() || !observed(c)) continue;
-        const float d = scene_distance(boxes, c);
+        const float d = distance(c);
         if (d < -truncation) continue;
         map.set_distance({x, y, z}, d);
       }
   map.compact();
   return map;
+}
+
+inline TsdfMap make_box_map_where(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,
+                                  const Eigen::Vector3f& hull_hi,
+                                  const std::function<bool(const Eigen::Vector3f&)>& observed, float voxel = 0.1f,
+                                  float truncation = 0.3f) {
+  return make_map_where([&boxes](const Eigen::Vector3f& c) { return scene_distance(boxes, c); }, hull_lo, hull_hi,
+                        observed, voxel, truncation);
 }
 
 inline TsdfMap make_box_map(const std::vector<Box>& boxes, const Eigen::Vector3f& hull_lo,

@@ -70,6 +70,11 @@ GravityEstimate estimate_gravity(const std::vector<Eigen::Vector3f>& points_in_s
                                  const GravityEstimation& options = {},
                                  const std::optional<Eigen::Vector3f>& known_up = std::nullopt);
 
+// The unit normals of the scan's planar patches (the ones estimate_gravity votes with), sensor frame, turned towards
+// the sensor. Deterministic; a few milliseconds for a 30k-point scan.
+std::vector<Eigen::Vector3f> planar_normals(const std::vector<Eigen::Vector3f>& points_in_sensor_frame,
+                                            const GravityEstimation& options = {});
+
 // The axis near `guess` that the unit normals are parallel or perpendicular to (the refinement
 // estimate_gravity uses), signed like `guess`; `guess` itself if too few normals support one. Finds a map's up
 // axis from its surface normals.
