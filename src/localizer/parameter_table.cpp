@@ -253,7 +253,8 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        kAdvanced},
       {"wall_tilt_information", "W", num(f.wall_tilt_information),
        "the scan's walls (planar patches within 10 degrees of vertical) hold the tilt of each pose refined onto "
-       "the map, each weighing this against 512 points, in proportion to the points (0 = the points alone)",
+       "the map, each weighing this against 512 points, in proportion to the points (0 = the points alone; 3 "
+       "measured, docs/filter.md)",
        kAdvanced},
       {"hypothesis_evidence_points", "N", num(f.hypothesis_evidence_points),
        "between hypotheses (modes) a scan counts as this many independent points of evidence (0 = untempered)",

@@ -136,8 +136,10 @@ struct FilterParameters {
   // The scan's walls hold the tilt of every pose refined onto the map (scan_fit.hpp: WallTilt), each planar patch
   // within 10° of vertical weighing this much against 512 points (0: the points alone), in proportion to the points
   // (the points' weight in the refinement grows with their count, the scan's information does not). In a room whose
-  // upper walls the map never observed, the points hardly fix the tilt, and a cloud 2° off stayed there.
-  double wall_tilt_information = 3.0;
+  // upper walls the map never observed, the points hardly fix the tilt, and a cloud 2° off stayed there; 3 held it
+  // (docs/filter.md). Off by default: with the walls in the places' refinement, a synthetic drone above a map's
+  // mapped band sank with its particles in the sanitizer build (ChangedMap.*KeepsItsHeight).
+  double wall_tilt_information = 0.0;
   ConvergenceOptions convergence;
   // Recovery from an implausible fit: once the belief has concentrated, a dominant hypothesis whose inlier
   // ratio stays below this for two updates is a wrong lock however steady its fit: a share 1 - ratio / this
