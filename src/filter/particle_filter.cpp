@@ -103,6 +103,7 @@ GlobalProposal& ParticleFilter::proposal() {
 }
 
 WallTilt ParticleFilter::walls_at(const Pose& pose) {
+  if (!(params_.wall_tilt_information > 0.0)) return WallTilt{};  // without building the proposal for map_up
   return select_walls(scan_normals_, pose, proposal().map_up().cast<double>(),
                       wall_information(params_.wall_tilt_information, scan_points_));
 }

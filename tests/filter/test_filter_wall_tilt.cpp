@@ -89,9 +89,10 @@ TEST(WallTilt, HoldsTheTiltWhereTheMapHardlyFixesIt) {
 }
 
 // The whole room mapped (floor and ceiling), and a map up axis 2° off what the walls say (a building whose walls lean,
-// a map frame not level): the walls do not take the tilt over where the map fixes it. At --wall_tilt_information 3 they
-// take 1.4° of the 2° here (the points constrain a tilt by their lever arms, short in a 8 x 6 m room: a 24 x 16 m hall
-// 1.2°). balm_realworld, whose map frame is not level, loses 0.02-0.03° of rotation RMSE by them (docs/filter.md).
+// a map frame not level): the walls do not take the tilt over where the map fixes it. At --wall_tilt_information 3
+// they take 1.4° of the 2° here (the points constrain a tilt by their lever arms, short in a 8 x 6 m room: a 24 x 16 m
+// hall 1.2°). balm_realworld, whose map frame is not level, loses 0.02-0.03° of rotation RMSE by them
+// (docs/filter.md).
 TEST(WallTilt, TheMapKeepsASayWhereItFixesTheTilt) {
   const TsdfMap map =
       test::make_box_map(room(), Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(8.2f, 6.2f, 3.2f));

@@ -79,17 +79,12 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& world_T_sensor,
                                  const std::vector<Eigen::Vector3f>& points, float reach,
                                  std::vector<std::uint8_t>& observed);
 
-// The pose near `world_T_sensor` at which `points` fit the map best: a few damped Gauss-Newton steps on their
-// distances (trilinear, Huber-weighted beyond 0.1 m; points in unknown space or beyond the truncation band take
-// no part). Comparing two hypotheses at their refined poses compares the places, not how well each hypothesis's
-// particles happen to be aligned: the one with more particles has the better-placed mean. Returns the input
-// pose where too few points constrain it.
 // The scan's walls as a measurement of the sensor's tilt beside the points: man-made walls stand vertical, so each
 // wall patch's normal (sensor frame) should lie horizontal in the map at the refined pose, perpendicular to
 // `world_up` (the map's up axis). A wall constrains the tilt about the horizontal axis in its plane; walls of two
 // directions fix the tilt. Floors are left out: on a ramp the floor under the sensor tilts with it. Where the
-// points fix the tilt (a level map around the sensor) they outweigh the walls; where they hardly do (a room whose
-// upper walls the map never observed) the walls hold it.
+// points fix the tilt (a level map around the sensor) both have their say; where they hardly do (a room whose upper
+// walls the map never observed) the walls hold it.
 struct WallTilt {
   std::vector<Eigen::Vector3d> normals;  // unit, sensor frame
   Eigen::Vector3d world_up = Eigen::Vector3d::UnitZ();
@@ -104,12 +99,17 @@ inline double wall_information(double per_512_points, std::size_t points) {
   return per_512_points * static_cast<double>(points) / 512.0;
 }
 
-// The patches of `normals` (unit, sensor frame; a scan's planar patches) within 10° of vertical under `pose`'s
-// tilt, each weighing `information_per_wall`, their total capped at that of `full_walls` walls (patches of one
-// wall are not independent measurements). Empty (no constraint) below 30 walls.
+// The patches of `normals` (unit, sensor frame; a scan's planar patches) within 10° of vertical under
+// `world_T_sensor`'s tilt, each weighing `information_per_wall`, their total capped at that of `full_walls` walls
+// (patches of one wall are not independent measurements). Empty (no constraint) below 30 walls.
 WallTilt select_walls(const std::vector<Eigen::Vector3f>& normals, const Pose& world_T_sensor,
                       const Eigen::Vector3d& world_up, double information_per_wall, std::size_t full_walls = 1000);
 
+// The pose near `world_T_sensor` at which `points` fit the map best: a few damped Gauss-Newton steps on their
+// distances (trilinear, Huber-weighted beyond 0.1 m; points in unknown space or beyond the truncation band take
+// no part). Comparing two hypotheses at their refined poses compares the places, not how well each hypothesis's
+// particles happen to be aligned: the one with more particles has the better-placed mean. Returns the input
+// pose where too few points constrain it. With `walls`, their residuals join the points' (WallTilt).
 Pose refine_pose(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,
                  int iterations = 6, const WallTilt* walls = nullptr);
 
