@@ -10,6 +10,7 @@
 #include <string>
 
 #include "tsdf_mcl/core/stopwatch.hpp"
+#include "tsdf_mcl/sensor/endpoint_kernel.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/filter/hypothesis_weighting.hpp"
@@ -61,30 +62,45 @@ std::vector<std::size_t> heaviest_particles(const std::int32_t* group, const dou
   return heaviest;
 }
 
+// Whether each point, seen from `pose`, ends in a voxel the map observed.
+void known_endpoints(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points,
+                     std::vector<std::uint8_t>& known) {
+  const kernel::MapView view(map);
+  const Eigen::Matrix3f r = pose.linear().cast<float>();
+  const Eigen::Vector3f t = pose.translation().cast<float>();
+  known.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f g = (r * points[i] + t) * view.inv_voxel;
+    const float at[3] = {g.x(), g.y(), g.z()};
+    known[i] = kernel::sample_nearest(view, at) != TsdfMap::kUnknownValue ? 1 : 0;
+  }
+}
+
 // Refines every hypothesis onto the map from its mean pose and from its heaviest particle: a mode's mean sits off
 // its place while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps
 // from there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
-// The better start wins (ties: the mean).
+// The better start wins, judged on the points that end in observed space at both (ties: the mean).
 Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
                      const std::vector<std::size_t>& heaviest, std::size_t n,
                      const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance,
-                     float frontier_reach, const std::function<WallTilt(const Pose&)>& walls_at) {
+                     float frontier_reach, double dead_band, const std::function<WallTilt(const Pose&)>& walls_at) {
   struct Start {
     std::size_t hypothesis;
     Pose pose;
     double total;
     std::vector<double> log;
     WallTilt walls;
+    std::vector<std::uint8_t> known;  // the point ends in a voxel the map observed
   };
   constexpr double kNone = -std::numeric_limits<double>::infinity();
   std::vector<Start> starts;
   for (std::size_t r = 0; r < h.size(); ++r) {
-    starts.push_back(Start{r, h[r].pose, kNone, {}, walls_at(h[r].pose)});
+    starts.push_back(Start{r, h[r].pose, kNone, {}, walls_at(h[r].pose), {}});
     if (heaviest[r] < n) {
       Pose best = Pose::Identity();
       best.linear() = particles.rotation(heaviest[r]).cast<double>().normalized().toRotationMatrix();
       best.translation() = particles.position(heaviest[r]).cast<double>();
-      starts.push_back(Start{r, best, kNone, {}, walls_at(best)});
+      starts.push_back(Start{r, best, kNone, {}, walls_at(best), {}});
     }
   }
   // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
@@ -97,6 +113,7 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
     point_log_likelihoods(map, plain, s.pose.translation().cast<float>(), q, points, s.log);
     s.total = 0.0;
     for (double l : s.log) s.total += l;
+    known_endpoints(map, s.pose, points, s.known);
   }
   Places places;
   places.pose.resize(h.size());
@@ -104,12 +121,25 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
   places.point_log.resize(h.size());
   places.observed.resize(h.size());
   places.fit.resize(h.size());
-  for (Start& s : starts) {
-    if (s.total > places.total[s.hypothesis]) {
-      places.total[s.hypothesis] = s.total;
-      places.pose[s.hypothesis] = s.pose;
-      places.point_log[s.hypothesis].swap(s.log);
+  // Not on the whole scan's total: it counts a point in space the map never observed as a miss, so it rewarded the
+  // start that moves the scan into the mapped part. A drone above the band of the office that a ground robot mapped
+  // had its place named by a particle 1.2 m too low, and the belief followed (with kTrackRadius, which keeps such
+  // particles off the whole scan's weights: ChangedMap.TheHeightHoldsWhateverTheWallsWeigh).
+  std::vector<std::size_t> chosen(h.size(), starts.size());
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    std::size_t& c = chosen[starts[k].hypothesis];
+    if (c == starts.size()) {
+      c = k;
+      continue;
     }
+    const PairedEvidence e = paired_evidence(starts[k].log, starts[k].known, starts[c].log, starts[c].known, dead_band);
+    if (e.sum > 0.0) c = k;
+  }
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    Start& s = starts[chosen[r]];
+    places.total[r] = s.total;
+    places.pose[r] = s.pose;
+    places.point_log[r].swap(s.log);
   }
 #pragma omp parallel for schedule(dynamic)
   for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
@@ -141,9 +171,10 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
-  Places places = refine_places(
-      map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n, points,
-      plain, params_.inlier_distance, frontier_reach(), [this](const Pose& pose) { return walls_at(pose); });
+  Places places =
+      refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
+                    points, plain, params_.inlier_distance, frontier_reach(), evidence_dead_band(),
+                    [this](const Pose& pose) { return walls_at(pose); });
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres

@@ -137,8 +137,9 @@ struct FilterParameters {
   // within 10° of vertical weighing this much against 512 points (0: the points alone), in proportion to the points
   // (the points' weight in the refinement grows with their count, the scan's information does not). In a room whose
   // upper walls the map never observed, the points hardly fix the tilt, and a cloud 2° off stayed there; 3 held it
-  // (docs/filter.md). Off by default: with the walls in the places' refinement, a synthetic drone above a map's
-  // mapped band sank with its particles in the sanitizer build (ChangedMap.*KeepsItsHeight).
+  // (docs/filter.md). Off by default: at 3 the sanitizer build's drone above a map's mapped band
+  // (ChangedMap.ATrackAboveTheMappedBandKeepsItsHeight) stayed 0.2 m low from its start on the ground until six poses
+  // into its climb, where other builds and weights (0-8) held the height.
   double wall_tilt_information = 0.0;
   ConvergenceOptions convergence;
   // Recovery from an implausible fit: once the belief has concentrated, a dominant hypothesis whose inlier
@@ -387,8 +388,12 @@ class ParticleFilter {
   // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
   static constexpr double kFrontierMinInliers = 0.8;
   static constexpr std::size_t kMinEvidencePoints = 32;
-  static constexpr double kTrackRadius = 1.0;           // m: particles this near a place's predicted pose belong to it
-  static constexpr std::size_t kMaxEvidencePlaces = 4;  // places weighed on their own points, at most
+  // m: particles this near a place's predicted pose belong to it (weigh_track_on_evidence). Four mode-finding cells
+  // (PoseEstimateOptions::cluster_bin_xyz): at 1 m, particles 1.2-1.5 m below a drone's track above a map's mapped
+  // band kept their whole-scan weights, which count its unobserved points as misses, joined its mode and spread it
+  // past the compact test; the place was then weighed on the whole scan and sank (ChangedMap.*KeepsItsHeight).
+  static constexpr double kTrackRadius = 2.0;
+  static constexpr std::size_t kMaxEvidencePlaces = 4;    // places weighed on their own points, at most
   static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
   std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
   bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start
