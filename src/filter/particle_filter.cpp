@@ -134,6 +134,7 @@ void ParticleFilter::start(std::size_t count) {
   trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
+  local_start_ = false;
   dominant_concentrated_ = false;
   covered_streak_ = 0;
   mapped_track_ = false;
@@ -151,6 +152,7 @@ void ParticleFilter::initialize_local(const Pose& pose, const LocalInitSpread& s
   sample_local(evaluator_.particles(), params_.initial_particles, pose, spread, params_.seed, step_);
   ++step_;
   start(params_.initial_particles);
+  local_start_ = true;
   estimate_.pose = pose;
   last_estimate_pose_ = pose;
 }
@@ -251,6 +253,7 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
     keeper_.reset();
     ever_converged_ = false;
+    local_start_ = false;
     recovery_.reset();
     convergence_.restart_after_wrong_lock();
     challengers_weighed_ = false;

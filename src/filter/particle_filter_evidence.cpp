@@ -201,8 +201,16 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
                                                   places.observed[ref], dead_band);
     evidence[r] = (places.total[ref] + (frontier(r) || frontier(ref) ? 0.0 : paired.sum)) / count;
   }
+  // The rest has no place to pair its points with: its marginal likelihood counts the points in unobserved space
+  // as misses. While the dominant place is at the frontier of unmapped space, that measure would hand its share to
+  // stray particles and fresh challengers at mapped places (a drone above the mapped band of a ground robot's map:
+  // 57 % in one update, and the next update, the belief no longer concentrated, weighed its track on the whole scan
+  // and sank it 0.8 m). Like a pair's evidence there, theirs waits: no more than the best place's.
   const double rest_per_point = rest_evidence(n, h.size() + 1, count);
-  if (!std::isnan(rest_per_point)) evidence[h.size()] = rest_per_point;
+  if (!std::isnan(rest_per_point)) {
+    evidence[h.size()] =
+        !h.empty() && frontier(0) ? std::min(rest_per_point, places.total[ref] / count) : rest_per_point;
+  }
   const double best = *std::max_element(evidence.begin(), evidence.end());
   // Until the belief first concentrates, no more than the tempering lets the particles count (a spread, global
   // belief: no early verdict between its modes); after, the tempering only keeps the particles of one tight mode
@@ -296,7 +304,14 @@ std::vector<Pose> ParticleFilter::evidence_centres(const Pose& delta, double rea
   // to tell places apart, and weighing its places on their own points tipped which of a symmetric building's two wings
   // led (symmetric VLP-16 handheld-1: 0.958 -> 0.228 localized, the wrong wing ahead from 1.6 s on).
   std::vector<Pose> centres;
-  if (!dominant_concentrated_ && !ever_converged_) return centres;
+  if (!dominant_concentrated_ && !ever_converged_) {
+    // A local start names its place: the track to keep is there from the first update, spread as the start was.
+    // Weighed on the whole scan, whose unobserved points count as misses, a drone's start whose map a ground robot
+    // made (ChangedMap.*KeepsItsHeight) went 0.1-0.2 m down for 11 of its 12 updates on the ground: a lower pose
+    // puts the walls' points above the mapped band onto it.
+    if (local_start_) centres.push_back(last_estimate_pose_ * delta);
+    return centres;
+  }
   // The belief as a few compact places: each hypothesis that passes the convergence test's spread (and is spread less
   // than `reach`), and the estimate's own (the kept track, which the estimate follows while a challenger is unproven,
   // may hold a sliver of the belief). Each is weighed on its own points, a look-alike that draws belief from the track

@@ -235,6 +235,7 @@ TsdfMap office_map_up_to(float mapped_height, const std::vector<Box>& boxes, boo
 // office 16 m east whole and the office only up to 1.3 m: above that the twin explains more of each scan.
 struct Flight {
   std::size_t poses = 0, sunk = 0, off = 0, shared = 0;
+  std::size_t ground_low = 0;  // poses before the take-off with the height more than 0.1 m off
 };
 Flight fly_above_the_mapped_band(bool frontier_evidence, bool twin = false,
                                  double wall_tilt_information = FilterParameters{}.wall_tilt_information) {
@@ -255,6 +256,9 @@ Flight fly_above_the_mapped_band(bool frontier_evidence, bool twin = false,
   filter.initialize_local(truth[0]);
   const FilterRun r = run(filter, scans, truth, odometry);
   Flight f;
+  for (std::size_t i = 0; i < 12; ++i) {
+    f.ground_low += std::abs(r.steps[i].estimate.pose.translation().z() - truth[i].translation().z()) > 0.1 ? 1 : 0;
+  }
   for (std::size_t i = 12; i < truth.size(); ++i, ++f.poses) {
     const double dz = r.steps[i].estimate.pose.translation().z() - truth[i].translation().z();
     f.sunk += std::abs(dz) > 0.15 ? 1 : 0;
@@ -271,20 +275,27 @@ Flight fly_above_the_mapped_band(bool frontier_evidence, bool twin = false,
 TEST(ChangedMap, ATrackAboveTheMappedBandKeepsItsHeight) {
   const Flight before = fly_above_the_mapped_band(true);
   const Flight now = fly_above_the_mapped_band(false);
-  std::fprintf(stderr, "poses over 0.15 m too low or high, of %zu: frontier points weighed %zu, dropped %zu\n",
-               now.poses, before.sunk, now.sunk);
-  // Measured: 0 against 34 of 34 (the default, walls off); with the walls at 3, 0 against 32 (the sanitizer build: 6
-  // against 34, a start 0.2 m low on the ground that lasts into the climb).
+  std::fprintf(stderr,
+               "poses over 0.15 m too low or high, of %zu: frontier points weighed %zu, dropped %zu; on the ground "
+               "before the take-off, over 0.1 m: %zu of 12\n",
+               now.poses, before.sunk, now.sunk, now.ground_low);
+  // Measured (walls at 3, the default): 0 against 32 (the sanitizer build: 0 against 34); on the ground 0 of 12.
+  // Before the local start was a track to keep from its first update (evidence_centres), 11 of the 12 were over 0.1 m
+  // low (the sanitizer build stayed 0.2 m low six poses into the climb too).
   EXPECT_EQ(now.off, 0u);
   EXPECT_LE(now.sunk, 2u);
+  EXPECT_LE(now.ground_low, 1u) << "the start on the ground sank";
   EXPECT_GE(before.sunk, before.poses / 2) << "the scene no longer shows the sinking";
 }
 
-// The flight with the scan's walls off and at 6, twice the weight measured (FilterParameters::wall_tilt_information):
-// the height must not hang on that weight. Before the places' starts were compared on the points both observe and the
+// The flight with the scan's walls off and at 6, twice the default (FilterParameters::wall_tilt_information): the
+// height must not hang on that weight. Before the places' starts were compared on the points both observe and the
 // track took in the particles 2 m around it (kTrackRadius), the drone sank on 15 of 34 poses at 6, on 0 with the walls
 // off: particles 1.2 m below the track, weighed on the whole scan, whose unobserved points count as misses, pulled the
-// belief down once they joined the track's mode (measured now: 0 at 0, 2, 3, 4, 6 and 8; 11 at 12).
+// belief down once they joined the track's mode. With the local start weighed on its points from the first update,
+// 14 sank at 6 by another path, until the rest's evidence waited at the frontier too (weigh_hypotheses): stray
+// particles took 57 % of the belief in one update, and the track, no longer concentrated, went onto the whole scan.
+// Measured now: 0 at 0, 2, 3, 4, 6 and 8 (the sanitizer build: 2, 0, 0, 0, 0, 0).
 TEST(ChangedMap, TheHeightHoldsWhateverTheWallsWeigh) {
   for (const double weight : {0.0, 6.0}) {
     const Flight f = fly_above_the_mapped_band(false, false, weight);

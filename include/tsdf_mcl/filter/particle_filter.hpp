@@ -137,10 +137,10 @@ struct FilterParameters {
   // within 10° of vertical weighing this much against 512 points (0: the points alone), in proportion to the points
   // (the points' weight in the refinement grows with their count, the scan's information does not). In a room whose
   // upper walls the map never observed, the points hardly fix the tilt, and a cloud 2° off stayed there; 3 held it
-  // (docs/filter.md). Off by default: at 3 the sanitizer build's drone above a map's mapped band
-  // (ChangedMap.ATrackAboveTheMappedBandKeepsItsHeight) stayed 0.2 m low from its start on the ground until six poses
-  // into its climb, where other builds and weights (0-8) held the height.
-  double wall_tilt_information = 0.0;
+  // (docs/filter.md). With the walls on, a drone above a map's mapped band (ChangedMap.*KeepsItsHeight) sank at some
+  // weights and builds until the track kept its height by its own points (kTrackRadius, local_start_, the rest's
+  // evidence at the frontier): now at most 2 of its 34 poses at any weight 0-8, in either build.
+  double wall_tilt_information = 3.0;
   ConvergenceOptions convergence;
   // Recovery from an implausible fit: once the belief has concentrated, a dominant hypothesis whose inlier
   // ratio stays below this for two updates is a wrong lock however steady its fit: a share 1 - ratio / this
@@ -274,7 +274,7 @@ class ParticleFilter {
   void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta,
                                FilterStep& step);
   // The predicted poses of the places weigh_track_on_evidence weighs on their own points (none before there is a
-  // track to keep, or while the belief is spread).
+  // track to keep, or while the belief is spread; a local start's given pose is one from the start).
   std::vector<Pose> evidence_centres(const Pose& delta, double reach) const;
   // Evidence: tempered weights, the hypotheses and their paired evidence, the fit recovery follows and the
   // implausible-fit test; returns the share of the next generation a wrong lock sends to a new search (0: none).
@@ -382,6 +382,7 @@ class ParticleFilter {
   std::size_t injected_end_ = 0;
   bool ever_converged_ = false;     // since the last initialization or re-spread
   bool ever_concentrated_ = false;  // likewise
+  bool local_start_ = false;        // initialized at a given pose (initialize_local), no wrong lock left since
   // Most of the scan: the map coverage at which the fit judges a place (map_judges_track, weigh_hypotheses).
   static constexpr double kMostOfTheScan = 0.75;
   // A place lying mostly in unobserved space whose observed points fit at least this well is at the frontier of
