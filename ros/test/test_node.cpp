@@ -313,11 +313,16 @@ class BagSession {
     const Outcome o = summarize(recorder_.take());
     print("node, after /initialpose", o);
     ASSERT_GT(o.scans, 5u);
-    // The first estimate sits where the operator put it, at the height the map gives.
-    EXPECT_LT(
-        (o.first.pose.translation().head<2>() - Eigen::Vector2d(msg.pose.pose.position.x, msg.pose.pose.position.y))
-            .norm(),
-        0.5);
+    // The first estimate sits where the operator put it, at the height the map gives. On a loaded machine the node's
+    // first updates after the reset take seconds and it drops the scans that came meanwhile, so its first estimate
+    // may be of a later scan: the operator's pose is carried by the robot's motion to that scan (once 4.3 m on).
+    Pose given = truth;
+    given.translation().head<2>() += Eigen::Vector2d(0.3, -0.2);
+    given.linear() = Eigen::AngleAxisd(0.08, Eigen::Vector3d::UnitZ()).toRotationMatrix() * truth.linear();
+    const Pose carried = given * (truth.inverse() * o.first_truth);
+    EXPECT_LT((o.first.pose.translation().head<2>() - carried.translation().head<2>()).norm(), 0.5)
+        << "the first estimate, " << (o.first_truth.translation() - truth.translation()).norm()
+        << " m along the route, is not where the operator put it";
     EXPECT_NEAR(o.first.pose.translation().z(), o.first_truth.translation().z(), 0.15);
     EXPECT_LT(angle_deg(o.first.pose, o.first_truth), 8.0);
     ASSERT_TRUE(o.converged_after_s);
