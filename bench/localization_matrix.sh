@@ -48,7 +48,8 @@ while [ $# -gt 0 ]; do
     --extra) extra="$2"; shift 2 ;;
     --tag) tag="$2"; shift 2 ;;
     --reuse) reuse=1; shift ;;
-    *) echo "localization_matrix.sh: unknown option $1" >&2; exit 2 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
+    *) echo "localization_matrix.sh: unknown option $1 (--help lists them)" >&2; exit 2 ;;
   esac
 done
 [ -x "$cli" ] || { echo "localization_matrix.sh: no tsdf-mcl at $cli (build first: cmake --preset release && cmake --build --preset release)" >&2; exit 1; }
