@@ -23,6 +23,22 @@ std::vector<double> group_log_sums(const double* v, const std::int32_t* group, s
   return sum;
 }
 
+std::vector<double> place_evidence(double reference_total, const std::vector<double>& paired,
+                                   const std::vector<bool>& waits, double points) {
+  if (paired.size() != waits.size()) throw Error("hypothesis weighting: one wait flag per place");
+  if (!(points > 0.0)) throw Error("hypothesis weighting: the evidence needs points");
+  std::vector<double> evidence(paired.size());
+  double best_judged = reference_total / points;  // the reference's own, also where every pair waits
+  for (std::size_t r = 0; r < paired.size(); ++r) {
+    evidence[r] = (reference_total + (waits[r] ? 0.0 : paired[r])) / points;
+    if (!waits[r]) best_judged = std::max(best_judged, evidence[r]);
+  }
+  for (std::size_t r = 0; r < paired.size(); ++r) {
+    if (waits[r]) evidence[r] = best_judged;
+  }
+  return evidence;
+}
+
 std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
                                     const std::vector<double>& evidence) {
   const std::size_t groups = evidence.size();

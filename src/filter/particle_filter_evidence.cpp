@@ -195,12 +195,19 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   const double dead_band = evidence_dead_band();
   const std::size_t ref = places.reference;
   const auto frontier = [&](std::size_t q) { return at_frontier(places.fit[q], places.pose[q]); };
-  std::vector<double> evidence(h.size() + 1, 0.0);
+  // A waiting place takes the best evidence of the places judged (place_evidence), not the reference's: in the
+  // symmetric building a third place held the best total, the mirror wing beat it by 54 nats, and the right track,
+  // at the frontier and tied with that third place, fell from 0.96 to 0.50 of the belief in two updates.
+  std::vector<double> paired(h.size(), 0.0);
+  std::vector<bool> waits(h.size(), false);
   for (std::size_t r = 0; r < h.size(); ++r) {
-    const PairedEvidence paired = paired_evidence(places.point_log[r], places.observed[r], places.point_log[ref],
-                                                  places.observed[ref], dead_band);
-    evidence[r] = (places.total[ref] + (frontier(r) || frontier(ref) ? 0.0 : paired.sum)) / count;
+    paired[r] =
+        paired_evidence(places.point_log[r], places.observed[r], places.point_log[ref], places.observed[ref], dead_band)
+            .sum;
+    waits[r] = frontier(r) || frontier(ref);
   }
+  std::vector<double> evidence = place_evidence(places.total[ref], paired, waits, count);
+  evidence.push_back(0.0);  // the rest's
   // The rest has no place to pair its points with: its marginal likelihood counts the points in unobserved space
   // as misses. While the dominant place is at the frontier of unmapped space, that measure would hand its share to
   // stray particles and fresh challengers at mapped places (a drone above the mapped band of a ground robot's map:

@@ -47,5 +47,35 @@ TEST(HypothesisWeighting, SharesFollowPriorTimesEvidenceAndGroupsKeepTheirInside
   EXPECT_THROW(reweight_groups(prior.data(), third.data(), group.data(), 5, {0.0, std::nan("")}), Error);
 }
 
+TEST(HypothesisWeighting, APlaceThatWaitsKeepsItsShareAgainstEveryPlace) {
+  // The symmetric building's drone (measured): the right track (place 1, 0.96 of the belief) at the frontier of the
+  // map's band, its mirror (place 0) beating the best-total third place (2, the reference) by 54 nats on 512 points.
+  const double points = 512.0;
+  const std::vector<double> paired = {54.0, 0.0, 0.0};
+  const std::vector<bool> waits = {false, true, false};
+  const std::vector<double> e = place_evidence(100.0, paired, waits, points);
+  EXPECT_DOUBLE_EQ(e[0], 154.0 / points);
+  EXPECT_DOUBLE_EQ(e[1], e[0]);  // tied with the best judged place, not with the reference
+  EXPECT_DOUBLE_EQ(e[2], 100.0 / points);
+  // Over the update the track keeps its share against the mirror; the third place loses to both.
+  const std::vector<std::int32_t> group = {0, 1, 2};
+  const std::vector<double> prior = {std::log(0.04), std::log(0.96), std::log(1e-3)};
+  std::vector<double> post = prior;
+  std::vector<double> scaled;
+  for (double v : e) scaled.push_back(16.0 * (v - e[0]));  // hypothesis_evidence_points per point, best at 0
+  const std::vector<double> share = reweight_groups(prior.data(), post.data(), group.data(), 3, scaled);
+  EXPECT_NEAR(share[1] / share[0], 0.96 / 0.04, 1e-9);
+  EXPECT_LT(share[2], 1e-3 * std::exp(-1.0));
+  // Judged places keep their paired evidence; where every pair waits, all tie with the reference.
+  const std::vector<double> none = place_evidence(100.0, paired, {true, true, true}, points);
+  for (double v : none) EXPECT_DOUBLE_EQ(v, 100.0 / points);
+  // Where the reference is the best judged place, a waiting place ties with it (as a pair of places did before).
+  const std::vector<double> best_ref = place_evidence(100.0, {-30.0, 0.0, 0.0}, {false, false, true}, points);
+  EXPECT_DOUBLE_EQ(best_ref[2], 100.0 / points);
+  EXPECT_DOUBLE_EQ(best_ref[0], 70.0 / points);
+  EXPECT_THROW(place_evidence(100.0, paired, {true}, points), Error);
+  EXPECT_THROW(place_evidence(100.0, paired, waits, 0.0), Error);
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

@@ -22,6 +22,14 @@ namespace tsdf_mcl {
 std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
                                     const std::vector<double>& evidence);
 
+// Each place's evidence against the reference place, per point: (reference_total + paired[r]) / points, where
+// paired[r] is place r's paired evidence with the reference (scan_fit.hpp: paired_evidence; 0 for the reference
+// itself). A place whose pair waits (waits[r]: it lies at the frontier of space the map never observed, so the map
+// cannot judge it) gets the best evidence that a judged place earns: it keeps its share against every place,
+// where evidence tied with the reference alone would lose it to each look-alike that beats a poor reference.
+std::vector<double> place_evidence(double reference_total, const std::vector<double>& paired,
+                                   const std::vector<bool>& waits, double points);
+
 // log sum exp of v over each group's particles (groups entries, -inf for an empty group).
 std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups);
 
