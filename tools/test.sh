@@ -24,7 +24,9 @@ preset=release
 [ "$full" = 1 ] && preset=ci
 
 if command -v ccache >/dev/null; then
-  export CCACHE_BASEDIR="$PWD" CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
+  # CCACHE_NOHASHDIR: the sanitizer build has debug info (-g), for which ccache would otherwise hash the build folder,
+  # so that a checkout elsewhere (CI's clean clone) missed the cache and rebuilt it whole.
+  export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
 fi
 
 step() { printf '\n==> test.sh: %s (%s)\n' "$1" "$(date -u +%H:%M:%S)" >&2; }
