@@ -8,6 +8,7 @@
 #include "cli_test_support.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "checkout_paths.hpp"
 
 using tsdf_mcl::test::read_bytes;
 using tsdf_mcl::test::TempDir;
@@ -47,10 +48,10 @@ TEST(CliMap, BuildMapRejectsBadInput) {
   expect_one_line_error(dir, "build-map --mesh " + d + "/broken.stl -o " + d + "/m.tsdf", "truncated");
   // A fuzzer's find: a corrupt local heap that makes libhdf5 1.10 itself crash (SIGSEGV in H5G__stab_lookup)
   // before the importer sees any data. The import runs in a child process: the crash is one error line.
-  expect_one_line_error(
-      dir,
-      std::string("build-map --import_h5 '") + TSDF_MCL_TEST_DATA + "/libhdf5_crash_local_heap.h5' -o " + d + "/m.tsdf",
-      "the HDF5 library crashed reading it");
+  expect_one_line_error(dir,
+                        std::string("build-map --import_h5 '") + tsdf_mcl::test::test_data_dir() +
+                            "/libhdf5_crash_local_heap.h5' -o " + d + "/m.tsdf",
+                        "the HDF5 library crashed reading it");
   EXPECT_FALSE(std::filesystem::exists(dir / "m.tsdf"));
 }
 

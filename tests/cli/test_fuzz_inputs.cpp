@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fuzz_targets.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl::fuzz {
 // Test names and failure messages show the target's name.
@@ -23,7 +24,7 @@ TEST_P(FuzzInputs, LoadOrFailWithAnError) {
   const tsdf_mcl::fuzz::Target& target = GetParam();
   std::size_t inputs = 0;
   for (const char* kind : {"corpus", "regressions"}) {
-    const std::filesystem::path dir = std::filesystem::path(TSDF_MCL_FUZZ_DATA) / kind / target.name;
+    const std::filesystem::path dir = std::filesystem::path(tsdf_mcl::test::fuzz_data_dir()) / kind / target.name;
     if (!std::filesystem::is_directory(dir)) continue;
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
       std::ifstream in(entry.path(), std::ios::binary);

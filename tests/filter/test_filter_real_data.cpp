@@ -10,14 +10,15 @@
 #include <vector>
 
 #include "map_test_helpers.hpp"
+#include "checkout_paths.hpp"
 
 namespace {
 
 using tsdf_mcl::test::TempDir;
 
 int run(const std::string& args, const TempDir& dir, std::string* out = nullptr) {
-  const std::string command = std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + (dir / "out.txt").string() +
-                              "' 2>'" + (dir / "err.txt").string() + "'";
+  const std::string command = std::string("'") + tsdf_mcl::test::cli_program() + "' " + args + " >'" +
+                              (dir / "out.txt").string() + "' 2>'" + (dir / "err.txt").string() + "'";
   const int status = std::system(command.c_str());
   if (out) *out = tsdf_mcl::test::read_bytes(dir / "out.txt");
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -25,7 +26,7 @@ int run(const std::string& args, const TempDir& dir, std::string* out = nullptr)
 
 // What a new user tries first: `--init global` and nothing else. No tilt or height prior, no initial guess.
 TEST(RealData, BalmPriorFreeGlobalLocalizationOnTheOddScans) {
-  const std::filesystem::path data = std::filesystem::path(TSDF_MCL_SHARED_DATA) / "balm_realworld";
+  const std::filesystem::path data = std::filesystem::path(tsdf_mcl::test::shared_data_dir()) / "balm_realworld";
   if (!std::filesystem::exists(data / "times.txt")) GTEST_SKIP() << "shared data " << data << " not present";
   TempDir dir;
   const std::string map = (dir / "even.tsdf").string();
@@ -49,7 +50,7 @@ TEST(RealData, BalmPriorFreeGlobalLocalizationOnTheOddScans) {
 }
 
 TEST(RealData, BalmGlobalLocalizationOnTheOddScans) {
-  const std::filesystem::path data = std::filesystem::path(TSDF_MCL_SHARED_DATA) / "balm_realworld";
+  const std::filesystem::path data = std::filesystem::path(tsdf_mcl::test::shared_data_dir()) / "balm_realworld";
   if (!std::filesystem::exists(data / "times.txt")) GTEST_SKIP() << "shared data " << data << " not present";
   TempDir dir;
   const std::string map = (dir / "even.tsdf").string();

@@ -9,11 +9,12 @@
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/map/map_builder.hpp"
 #include "sensor_test_support.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl {
 namespace {
 
-const std::filesystem::path kBalm = std::filesystem::path(TSDF_MCL_SHARED_DATA) / "balm_realworld";
+const std::filesystem::path kBalm = std::filesystem::path(tsdf_mcl::test::shared_data_dir()) / "balm_realworld";
 
 TEST(VulkanRealScan, WeightsAgreeWithCpuOnBalmRealworld) {
   if (!std::filesystem::exists(kBalm / "times.txt")) GTEST_SKIP() << "shared data absent: " << kBalm;

@@ -10,6 +10,7 @@
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/isolated_call.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -43,7 +44,7 @@ TEST(IsolatedCall, AnswersErrorsAndCrashesComeBack) {
 TEST(IsolatedCall, TheHdf5ImportIsIsolatedForLibraryCallers) {
   test::TempDir dir;
   try {
-    import_reference_h5_isolated(std::string(TSDF_MCL_TEST_DATA) + "/libhdf5_crash_local_heap.h5", 0.6f,
+    import_reference_h5_isolated(std::string(tsdf_mcl::test::test_data_dir()) + "/libhdf5_crash_local_heap.h5", 0.6f,
                                  std::uint64_t{256} << 20, dir.path());
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {

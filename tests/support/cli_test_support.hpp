@@ -1,5 +1,5 @@
 #pragma once
-// Runs the tsdf-mcl program (path from the TSDF_MCL_CLI compile definition) for command-line tests.
+// Runs the tsdf-mcl program (checkout_paths.hpp) for command-line tests.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -8,6 +8,7 @@
 #include <string>
 
 #include "map_test_helpers.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl::test {
 
@@ -20,7 +21,7 @@ struct CliResult {
 inline CliResult run_cli(const TempDir& dir, const std::string& args) {
   const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
   const std::string command =
-      std::string("'") + TSDF_MCL_CLI + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+      std::string("'") + cli_program() + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
   const int status = std::system(command.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

@@ -13,6 +13,7 @@
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/mesh.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl::test {
 
@@ -49,7 +50,7 @@ inline std::string read_bytes(const std::filesystem::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-inline std::filesystem::path shared_data() { return TSDF_MCL_SHARED_DATA; }
+inline std::filesystem::path shared_data() { return shared_data_dir(); }
 
 // Bit-by-bit CRC-32 (IEEE), independent of the table-driven one in the library: tests re-seal edited map files.
 inline std::uint32_t crc32_bitwise(const std::string& bytes) {

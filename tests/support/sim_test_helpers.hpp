@@ -17,6 +17,7 @@
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/io/mesh.hpp"
 #include "tsdf_mcl/sim/simulator.hpp"
+#include "checkout_paths.hpp"
 
 namespace tsdf_mcl::test {
 
@@ -123,7 +124,7 @@ struct CliRun {
 // Runs the tsdf-mcl program with the given arguments (a shell fragment).
 inline CliRun run_cli(const std::string& arguments, const std::filesystem::path& scratch) {
   const std::filesystem::path log = scratch / "cli_output.txt";
-  const std::string command = std::string(TSDF_MCL_CLI) + " " + arguments + " > '" + log.string() + "' 2>&1";
+  const std::string command = std::string(cli_program()) + " " + arguments + " > '" + log.string() + "' 2>&1";
   const int status = std::system(command.c_str());
   CliRun run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
