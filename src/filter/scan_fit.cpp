@@ -181,6 +181,7 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
   if (points.empty() || map.empty() || !(reach > 0.0f)) return 0;
   const kernel::MapView view(map);
   const float truncation = map.truncation();
+  const float voxel = map.voxel_size();
   const auto near_surface = static_cast<std::int32_t>(0.5f * truncation / view.quant_step);
   const GridPose grid(pose, view);
   const float reach_grid = reach * view.inv_voxel;
@@ -203,7 +204,24 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
       }
       return false;
     };
+    // An endpoint in unknown space is a miss where its ray went into a surface the map holds and on beyond its band.
+    // Where the ray was in observed free space within the band's depth before it (a positive distance, before any
+    // voxel deep inside a surface), the endpoint sits in a hole of a surface the map saw only at a grazing angle (a
+    // skipped room's ceiling seen through its door: the surface's own voxels unknown, those beside them known), or
+    // where the observed free space ends. The map cannot say whether a surface is there.
     bool frontier = false;
+    if (kernel::sample_nearest(view, g) == TsdfMap::kUnknownValue) {
+      for (float back = voxel; back <= truncation + 0.5f * voxel && back < range; back += voxel) {
+        const float h[3] = {g[0] - back * direction.x(), g[1] - back * direction.y(), g[2] - back * direction.z()};
+        const std::int32_t v = kernel::sample_nearest(view, h);
+        if (v == TsdfMap::kUnknownValue) continue;
+        if (v <= -near_surface) break;
+        if (v > 0) {
+          frontier = true;
+          break;
+        }
+      }
+    }
     for (int a = 0; a < 3 && !frontier; ++a) {
       for (const float sign : {-1.0f, 1.0f}) {
         float at[3] = {g[0], g[1], g[2]};

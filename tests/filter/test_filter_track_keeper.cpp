@@ -133,6 +133,41 @@ TEST(MapEvidence, PointsAtTheFrontierOfTheObservedSpaceAreNoEvidence) {
   EXPECT_EQ(drop_frontier_points(map, pose, points, 0.0f, observed), 0u);
 }
 
+// A room mapped whole, but for a patch of its ceiling's surface voxels (z = 3.0), left unknown as grazing rays
+// through a door leave them (the voxels in front of the surface and above it known). A point in that hole is no
+// evidence: with the voxel known it would be an inlier. Points on the intact ceiling and behind a wall stay.
+TEST(MapEvidence, AHoleInASurfaceIsNoEvidence) {
+  const std::vector<Box> room = {box(-0.2f, -0.2f, -0.2f, 5.2f, 4.2f, 0.0f), box(-0.2f, -0.2f, 3.0f, 5.2f, 4.2f, 3.6f),
+                                 box(-0.2f, -0.2f, 0.0f, 0.0f, 4.2f, 3.0f),  box(5.0f, -0.2f, 0.0f, 5.6f, 4.2f, 3.0f),
+                                 box(-0.2f, -0.2f, 0.0f, 5.2f, 0.0f, 3.0f),  box(-0.2f, 4.0f, 0.0f, 5.2f, 4.2f, 3.0f)};
+  TsdfMap map =
+      test::make_box_map(room, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(5.6f, 4.2f, 3.6f), 0.05f, 0.3f);
+  const Eigen::Vector3i lo = map.voxel_of(Eigen::Vector3f(3.3f, 1.8f, 3.0f));
+  const Eigen::Vector3i hi = map.voxel_of(Eigen::Vector3f(3.7f, 2.2f, 3.0f));
+  for (int x = lo.x(); x <= hi.x(); ++x) {
+    for (int y = lo.y(); y <= hi.y(); ++y) map.set_unknown(Eigen::Vector3i(x, y, lo.z()));
+  }
+  // Beyond the east wall's band (x from 5.3 on) the map holds nothing.
+  const Eigen::Vector3i east_lo = map.voxel_of(Eigen::Vector3f(5.35f, -0.2f, -0.2f));
+  const Eigen::Vector3i east_hi = map.voxel_of(Eigen::Vector3f(5.6f, 4.2f, 3.6f));
+  for (int x = east_lo.x(); x <= east_hi.x(); ++x) {
+    for (int y = east_lo.y(); y <= east_hi.y(); ++y) {
+      for (int z = east_lo.z(); z <= east_hi.z(); ++z) map.set_unknown(Eigen::Vector3i(x, y, z));
+    }
+  }
+  const Pose pose = pose_from_xyz_rpy(2.5, 2.0, 1.5, 0.0, 0.0, 0.0);
+  const std::vector<Eigen::Vector3f> points = {
+      Eigen::Vector3f(1.0f, 0.0f, 1.5f),   // the ceiling in the hole
+      Eigen::Vector3f(-1.0f, 0.0f, 1.5f),  // the intact ceiling
+      Eigen::Vector3f(3.0f, 0.0f, 0.0f),   // 0.5 m into the east wall, beyond its band: a miss
+  };
+  ASSERT_EQ(map.quantized(map.voxel_of(Eigen::Vector3f(3.5f, 2.0f, 3.0f))), TsdfMap::kUnknownValue);
+  ASSERT_EQ(map.quantized(map.voxel_of(Eigen::Vector3f(5.5f, 2.0f, 1.5f))), TsdfMap::kUnknownValue);
+  std::vector<std::uint8_t> observed(points.size(), 1);
+  EXPECT_EQ(drop_frontier_points(map, pose, points, map.truncation(), observed), 1u);
+  EXPECT_EQ(observed, (std::vector<std::uint8_t>{0, 1, 1}));
+}
+
 // The same room whose walls' top band (from 1.3 m up) the mapping run saw from afar, at grazing angles: the map
 // holds them 0.25 m off. Seen from 0.3 m lower, the upper walls' points land on the accurate lower band, and on the
 // points both heights observe the lower pose explained the scan better by the frontier's points alone.

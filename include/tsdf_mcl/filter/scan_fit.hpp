@@ -74,7 +74,9 @@ PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vect
 // seen from the corridor): between two places such points decided for whichever place the map happened to see
 // better, not for where the robot is. An endpoint counts as observed where its voxel is known, or where the first
 // known voxel back along its ray (within three truncation lengths) lies inside or on a surface: a ray that went
-// through a wall is a miss the map can judge. Returns how many were cleared.
+// through a wall is a miss the map can judge. An endpoint in unknown space whose ray was in free space within a
+// truncation length before it (before any voxel deep inside a surface) is cleared too: a hole in a surface seen only
+// at a grazing angle, or the end of the observed free space. Returns how many were cleared.
 std::size_t drop_frontier_points(const TsdfMap& map, const Pose& world_T_sensor,
                                  const std::vector<Eigen::Vector3f>& points, float reach,
                                  std::vector<std::uint8_t>& observed);
