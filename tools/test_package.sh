@@ -68,7 +68,12 @@ check_depends() {  # deb, binary path inside it
     path=$(awk -v l="$lib" '$1 == l && /x86-64|AArch64/ {print $NF; exit}' "$work/ldconfig.txt")
     [ -n "$path" ] || fail "$bin needs $lib, which is not installed here"
     pkg=$(owner "$path") || fail "no package owns $path ($lib, loaded by $bin)"
-    echo "$depends" | grep -qx "$pkg" || fail "$(basename "$deb") loads $lib from $pkg, which its Depends do not name"
+    # Once (a loaded machine, 2026-11-28) the Depends lacked libvulkan1 and a rerun passed: say what CPack wrote.
+    echo "$depends" | grep -qx "$pkg" || {
+      echo "Depends of $(basename "$deb"): $(echo "$depends" | tr '\n' ' ')" >&2
+      grep -i 'shlibdeps\|warning' "$work/cpack.log" >&2 || true
+      fail "$(basename "$deb") loads $lib from $pkg, which its Depends do not name"
+    }
   done
   apt-get install --simulate -qq "$deb" >"$work/apt-$(basename "$deb").log" 2>&1 ||
     { cat "$work/apt-$(basename "$deb").log" >&2; fail "apt cannot satisfy the Depends of $(basename "$deb")"; }

@@ -51,6 +51,8 @@ void FilterParameters::validate() const {
   if (!(hypothesis_evidence_points >= 0.0) || !std::isfinite(hypothesis_evidence_points)) {
     throw Error("hypothesis_evidence_points must not be negative");
   }
+  if (!(estimate_switch_ratio >= 1.0) || !std::isfinite(estimate_switch_ratio))
+    throw Error("estimate_switch_ratio must be at least 1");
   if (!(hypothesis_min_weight > 0.0 && hypothesis_min_weight <= 1.0))
     throw Error("hypothesis_min_weight must lie in (0, 1]");
   if (!(inlier_distance > 0.0f) || !std::isfinite(inlier_distance)) throw Error("inlier_distance must be positive");
@@ -142,6 +144,7 @@ void ParticleFilter::start(std::size_t count) {
   last_challenge_time_ = -1e300;
   challengers_weighed_ = false;
   estimate_ = PoseEstimate{};
+  estimate_placed_ = false;
   state_ = TrackState::kSearching;
 }
 
@@ -155,6 +158,7 @@ void ParticleFilter::initialize_local(const Pose& pose, const LocalInitSpread& s
   local_start_ = true;
   estimate_.pose = pose;
   last_estimate_pose_ = pose;
+  estimate_placed_ = true;
 }
 
 bool ParticleFilter::calls_for_update(const Pose& delta, double time) {
@@ -330,6 +334,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   }
   step.updated = true;
   track_prediction_ = keeper_.active() ? std::optional<Pose>(keeper_.predict(delta)) : std::nullopt;
+  estimate_prediction_ = estimate_placed_ ? std::optional<Pose>(last_estimate_pose_ * delta) : std::nullopt;
   Stopwatch t0;
   predict(n, delta, motion_.elapsed(time));
   step.timings.motion_ms = t0.ms();
@@ -357,6 +362,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
 
   motion_.finish_update(time, odometry);
   last_estimate_pose_ = estimate_.pose;
+  estimate_placed_ = true;
   ++step_;
   step.timings.total_ms = t_start.ms();
   return step;

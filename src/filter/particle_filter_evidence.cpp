@@ -245,6 +245,16 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   mapped_track_ = mapped_track_ || covered_streak_ >= kMappedTrackUpdates;
   step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
   dominant_concentrated_ = step.concentrated;
+  keep_estimate_place(step);
+}
+
+void ParticleFilter::keep_estimate_place(const FilterStep& step) {
+  const std::vector<Hypothesis>& h = estimate_.hypotheses;
+  if (step.concentrated || !estimate_prediction_ || params_.estimate.best_particle) return;
+  const ConvergenceOptions& c = params_.convergence;
+  const std::size_t k =
+      estimate_place(h, *estimate_prediction_, params_.estimate_switch_ratio, c.max_jump_m, c.max_jump_rad);
+  if (k != 0) take_hypothesis(estimate_, k, params_.estimate);
 }
 
 bool ParticleFilter::at_frontier(const RayFit& fit, const Pose& pose) const {

@@ -251,9 +251,24 @@ std::size_t PoseEstimator::rank_components(std::size_t* modes) {
   return k;
 }
 
-bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) {
-  if (e.hypotheses.empty()) throw Error("pose estimate: no hypothesis to take");
-  const Hypothesis& top = e.hypotheses.front();
+bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) { return take_hypothesis(e, 0, o); }
+
+std::size_t estimate_place(const std::vector<Hypothesis>& h, const Pose& prediction, double switch_ratio,
+                           double max_jump_m, double max_jump_rad) {
+  const auto continues = [&](const Hypothesis& place) {
+    return (place.pose.translation() - prediction.translation()).norm() <= max_jump_m &&
+           rotation_angle_between(place.pose.linear(), prediction.linear()) <= max_jump_rad;
+  };
+  if (h.empty() || continues(h.front())) return 0;
+  for (std::size_t k = 1; k < h.size(); ++k) {
+    if (continues(h[k])) return h.front().weight < switch_ratio * h[k].weight ? k : 0;
+  }
+  return 0;
+}
+
+bool take_hypothesis(PoseEstimate& e, std::size_t index, const PoseEstimateOptions& o) {
+  if (index >= e.hypotheses.size()) throw Error("pose estimate: no hypothesis to take");
+  const Hypothesis& top = e.hypotheses[index];
   if (!o.best_particle) e.pose = top.pose;
   e.covariance = top.covariance;
   e.mode_weight = top.weight;

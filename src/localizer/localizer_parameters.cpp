@@ -216,6 +216,7 @@ void set_estimate(FilterParameters& f, const Values& v) {
   f.inlier_distance = static_cast<float>(v.number("inlier_distance"));
   f.recovery_min_inliers = v.number("recovery_min_inliers");
   f.hypothesis_evidence_points = v.number("hypothesis_evidence_points");
+  f.estimate_switch_ratio = v.number("estimate_switch_ratio");
   f.wall_tilt_information = v.number("wall_tilt_information");
   f.frontier_evidence = v.flag("frontier_evidence");
   f.hypothesis_min_particles = v.count("hypothesis_min_particles", limits::kMaxParticles);

@@ -256,6 +256,10 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        "the map, each weighing this against 512 points, in proportion to the points (0 = the points alone; 3 "
        "measured, docs/filter.md)",
        kAdvanced},
+      {"estimate_switch_ratio", "R", num(f.estimate_switch_ratio),
+       "while no place dominates, the estimate moves to another place only once it holds this many times the "
+       "share of the place the estimate is on (1 = always the heaviest place)",
+       kAdvanced},
       {"hypothesis_evidence_points", "N", num(f.hypothesis_evidence_points),
        "between hypotheses (modes) a scan counts as this many independent points of evidence (0 = untempered)",
        kAdvanced},

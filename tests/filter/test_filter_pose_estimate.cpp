@@ -115,6 +115,35 @@ TEST(PoseEstimator, CovarianceOfAGaussianCloudAndConvergence) {
   EXPECT_FALSE(strict_estimator.estimate(p.view, w.data(), n).converged);
 }
 
+// Two look-alike places 18 m apart: the estimate stays on the one that continues it until the other holds
+// switch_ratio times its share, and a place that continues nothing never keeps it.
+TEST(EstimatePlace, ATieBetweenLookAlikesDoesNotMoveTheEstimate) {
+  const auto place = [](double x, double yaw, double weight) {
+    Hypothesis h;
+    h.pose = pose_from_xyz_rpy(x, 4.0, 1.0, 0.0, 0.0, yaw);
+    h.weight = weight;
+    return h;
+  };
+  const Pose prediction = pose_from_xyz_rpy(3.1, 4.0, 1.0, 0.0, 0.0, 0.02);  // where the odometry carries it
+  const double ratio = 1.2, jump = 0.5, turn = 0.35;
+  // The mirror place (x 21, turned half round) just took the lead: the estimate stays.
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.505), place(3.0, 0.0, 0.495)}, prediction, ratio, jump, turn), 1u);
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.54), place(3.0, 0.0, 0.46)}, prediction, ratio, jump, turn), 1u);
+  // Past the ratio it moves; with a ratio of 1 at once.
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.56), place(3.0, 0.0, 0.44)}, prediction, ratio, jump, turn), 0u);
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.505), place(3.0, 0.0, 0.495)}, prediction, 1.0, jump, turn), 0u);
+  // The heaviest place continues the estimate: it is the estimate.
+  EXPECT_EQ(estimate_place({place(3.0, 0.0, 0.6), place(21.0, M_PI, 0.4)}, prediction, ratio, jump, turn), 0u);
+  // No place continues it (the same place turned by 40°, or 0.8 m off): the heaviest.
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.505), place(3.0, 0.7, 0.495)}, prediction, ratio, jump, turn), 0u);
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.505), place(3.9, 0.0, 0.495)}, prediction, ratio, jump, turn), 0u);
+  // The heaviest place that continues it counts, not the first in the list.
+  EXPECT_EQ(estimate_place({place(21.0, M_PI, 0.45), place(3.0, 0.0, 0.4), place(3.2, 0.0, 0.15)}, prediction, ratio,
+                           jump, turn),
+            1u);
+  EXPECT_EQ(estimate_place({}, prediction, ratio, jump, turn), 0u);
+}
+
 TEST(PoseEstimator, YawWrapsAroundAndBestParticleOption) {
   OwnedParticles p(200);
   std::vector<double> w(200, 1.0);

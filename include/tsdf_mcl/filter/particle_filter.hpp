@@ -161,6 +161,10 @@ struct FilterParameters {
   TrackKeeperOptions track;
   // TrackState::kAmbiguous also when the second hypothesis holds at least this share of the belief.
   double ambiguous_weight = 0.1;
+  // While no place dominates, the estimate stays on the odometry continuation of the place it reported until
+  // another place holds this many times that place's share: a near-tie between look-alikes (the symmetric
+  // building's wings at 0.505 / 0.495) does not move it 18 m and back. 1 = always the heaviest place.
+  double estimate_switch_ratio = 1.2;
   GlobalInitOptions global_init;
   GlobalSearchOptions global_search;
   LocalInitSpread local_init;
@@ -293,6 +297,9 @@ class ParticleFilter {
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // The estimate from the place it reported last, where the heaviest place does not hold estimate_switch_ratio
+  // times its share.
+  void keep_estimate_place(const FilterStep& step);
   // A place at the frontier of unmapped space, whose evidence waits (weigh_hypotheses): after a mapped track, the
   // map covers less than most of its scan, and it fits its observed points well or continues the kept track.
   bool at_frontier(const RayFit& fit, const Pose& pose) const;
@@ -399,6 +406,8 @@ class ParticleFilter {
   std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
   bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start
   std::optional<Pose> track_prediction_;  // this update: where the odometry carries the kept track, if any
+  // This update: where the odometry carries the last reported estimate, once there is one.
+  std::optional<Pose> estimate_prediction_;
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update
@@ -430,6 +439,7 @@ class ParticleFilter {
   MotionPrediction motion_;  // the motion model's state between updates
   bool force_update_ = false;
   Pose last_estimate_pose_ = Pose::Identity();
+  bool estimate_placed_ = false;  // last_estimate_pose_ is an estimate (an update's or the local start's)
 
   PoseEstimate estimate_;
   TrackState state_ = TrackState::kSearching;

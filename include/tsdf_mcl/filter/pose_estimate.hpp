@@ -81,6 +81,14 @@ struct PoseEstimate {
 // best_particle, whose pose the estimator sets), covariance, mode weight and particles, spreads and fits. Returns
 // whether that hypothesis is concentrated by `options` (converged_weight, converged_std_xyz, converged_std_angle).
 bool take_dominant_hypothesis(PoseEstimate& estimate, const PoseEstimateOptions& options);
+// The same from hypotheses[index] (which must exist).
+bool take_hypothesis(PoseEstimate& estimate, std::size_t index, const PoseEstimateOptions& options);
+
+// Which hypothesis (heaviest first) the estimate reports, given where the odometry carries the last estimate
+// (`prediction`): the heaviest, unless it lies elsewhere (beyond max_jump_m or max_jump_rad) and the hypothesis
+// that continues the last estimate holds more than 1 / switch_ratio of its share. Then that one.
+std::size_t estimate_place(const std::vector<Hypothesis>& hypotheses, const Pose& prediction, double switch_ratio,
+                           double max_jump_m, double max_jump_rad);
 
 // Weighted rotation mean (Markley); weights need not be normalized. Throws Error for an empty or zero-weight set.
 Eigen::Quaterniond average_rotation(const std::vector<Eigen::Quaterniond>& rotations,
