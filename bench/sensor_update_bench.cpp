@@ -109,7 +109,8 @@ struct SensorUpdate {
       return e.last_timings();
     }
     UpdateTimings t;
-    weighing.weigh(e, n, points, config.model, reference, &t);
+    // Particles uniform over the map box are a global search; those around the true pose are one place.
+    weighing.weigh(e, n, points, config.model, reference, &t, config.spread == "global");
     return t;
   }
 };

@@ -15,6 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include "free_port.hpp"
+
 namespace tsdf_mcl::ros_node {
 
 namespace fs = std::filesystem;
@@ -95,7 +97,7 @@ bool wait_until(F&& done, std::chrono::seconds timeout) {
 class Master {
  public:
   explicit Master(const fs::path& dir) {
-    const int port = 20000 + static_cast<int>(getpid() % 20000);
+    const int port = free_loopback_port();
     const std::string master = "http://127.0.0.1:" + std::to_string(port);
     setenv("ROS_MASTER_URI", master.c_str(), 1);
     setenv("ROS_HOSTNAME", "127.0.0.1", 1);

@@ -16,6 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include "free_port.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -61,7 +63,7 @@ class NodeParameters : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("tsdf_mcl_ros_parameters_" + std::to_string(getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_ / "ros");
-    const int port = 40000 + static_cast<int>(getpid() % 20000);
+    const int port = tsdf_mcl::ros_node::free_loopback_port();
     setenv("ROS_MASTER_URI", ("http://127.0.0.1:" + std::to_string(port)).c_str(), 1);
     setenv("ROS_HOSTNAME", "127.0.0.1", 1);
     setenv("ROS_HOME", (dir_ / "ros").c_str(), 1);

@@ -73,10 +73,23 @@ void CpuEvaluator::rebuild_tables(const EndpointModel& model) {
 
 WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
                                      const Eigen::Quaternionf& reference_rotation) {
+  const Stopwatch t0;
+  weigh_particles(n, model);
+  const WeightSummary summary = reduce_weights(particles(), n, reference_rotation, fit_constants(model, point_count_));
+  timings_.evaluate_ms = t0.ms();
+  return summary;
+}
+
+void CpuEvaluator::weigh(std::size_t n, const EndpointModel& model) {
+  const Stopwatch t0;
+  weigh_particles(n, model);
+  timings_.evaluate_ms = t0.ms();
+}
+
+void CpuEvaluator::weigh_particles(std::size_t n, const EndpointModel& model) {
   model.validate();
   if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
   if (point_count_ == 0) throw Error("evaluate: no scan points set");
-  const Stopwatch t0;
   rebuild_tables(model);
   const ParticleArrays p = particles();
   const kernel::ModelConstants k(model);
@@ -105,9 +118,7 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
         p.log_weight[i] = exponent * (product ? p.log_weight[i] : std::log(p.log_weight[i]));
       }
     }
-    const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
-    timings_.evaluate_ms = t0.ms();
-    return summary;
+    return;
   }
 
 #pragma omp parallel for num_threads(threads_) schedule(static)
@@ -131,9 +142,6 @@ WeightSummary CpuEvaluator::evaluate(std::size_t n, const EndpointModel& model,
     }
     p.log_weight[i] = exponent * (product ? acc : std::log(acc));
   }
-  const WeightSummary summary = reduce_weights(p, n, reference_rotation, fit_constants(model, point_count_));
-  timings_.evaluate_ms = t0.ms();
-  return summary;
 }
 
 }  // namespace tsdf_mcl

@@ -202,7 +202,10 @@ WeightSummary ParticleFilter::weigh_scan(std::size_t n, const std::vector<Eigen:
   }
   const Eigen::Quaternionf reference(Eigen::Quaterniond(last_estimate_pose_.linear()).cast<float>());
   UpdateTimings et;
-  const WeightSummary summary = subset_first_.weigh(evaluator_, n, points, params_.sensor, reference, &et);
+  // A global search until the belief first concentrates (not after a local start): subset first's middle pass.
+  const bool global_search = !local_start_ && !ever_concentrated_;
+  const WeightSummary summary =
+      subset_first_.weigh(evaluator_, n, points, params_.sensor, reference, &et, global_search);
   step.timings.upload_ms = et.upload_ms;
   step.timings.weight_ms = et.evaluate_ms;
   step.timings.weight_gpu_ms = et.weight_gpu_ms;

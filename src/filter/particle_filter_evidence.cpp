@@ -374,7 +374,6 @@ void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Ei
   const ParticleArrays p = evaluator_.particles();
   place_of_.assign(n, -1);
   const auto near = static_cast<float>(kTrackRadius);
-  const Eigen::Quaternionf reference(Eigen::Quaterniond(last_estimate_pose_.linear()).cast<float>());
   for (std::size_t c = 0; c < centres.size(); ++c) {
     ray_fit(map_, centres[c], points, params_.inlier_distance, 0.4f, &evidence_observed_);
     const std::size_t dropped = drop_frontier_points(map_, centres[c], points, reach, evidence_observed_);
@@ -402,7 +401,7 @@ void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Ei
     evaluator_.swap_particles();
     try {
       evaluator_.set_points(evidence_points_);
-      evaluator_.evaluate(members_.size(), params_.sensor, reference);
+      evaluator_.weigh(members_.size(), params_.sensor);
     } catch (...) {
       evaluator_.swap_particles();
       throw;

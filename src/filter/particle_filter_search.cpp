@@ -111,7 +111,7 @@ void ParticleFilter::climb(std::size_t n, const std::vector<Eigen::Vector3f>& po
         p.set(n + kTries * i + t, p.position(i) + dp, (p.rotation(i) * quaternion_exp(dr)).normalized());
       }
     }
-    evaluator_.evaluate((kTries + 1) * n, wide, Eigen::Quaternionf::Identity());
+    evaluator_.weigh((kTries + 1) * n, wide);
     // Each hypothesis moves to its best variant: a climb per hypothesis, no competition between them, so a
     // look-alike the screening found keeps its place beside the right one.
     const ParticleArrays dst = evaluator_.spare_particles();
@@ -179,7 +179,7 @@ void ParticleFilter::search(std::size_t candidates, std::size_t keep, const std:
       evaluator_.reserve(capacity_, points_capacity_);
     }
     evaluator_.set_points(subset);
-    evaluator_.evaluate(m, wide, Eigen::Quaternionf::Identity());
+    evaluator_.weigh(m, wide);
     order.resize(m);
     for (std::size_t i = 0; i < m; ++i) order[i] = static_cast<std::uint32_t>(i);
     const std::size_t k = keep_of[b];

@@ -19,23 +19,47 @@ void VulkanEvaluator::barrier(VkAccessFlags src, VkAccessFlags dst, VkPipelineSt
   vkCmdPipelineBarrier(cmd_, src_stage, dst_stage, 0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
-WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& model,
-                                        const Eigen::Quaternionf& reference_rotation) {
+const gpu::ComputePipeline* VulkanEvaluator::prepare_weighting(std::size_t n, const EndpointModel& model) {
   model.validate();
   if (n > capacity_) throw Error("evaluate: particle count exceeds the reserved capacity");
   if (point_count_ == 0) throw Error("evaluate: no scan points set");
-  const Stopwatch t0;
   const gpu::ComputePipeline& endpoint = endpoint_pipeline(model, point_count_ <= uniform_point_capacity_);
-  if (n == 0) return {};
+  if (n == 0) return nullptr;
   if (model.interpolation == Interpolation::kNearest && !(table_model_ && kernel::same_table(model, *table_model_))) {
     std::vector<float> table;
     kernel::likelihood_table(model, map_view_.quant_step, table);
     gpu::upload(*ctx_, command_pool_, table_, table.data(), table.size() * sizeof(float));
     table_model_ = model;
   }
+  return &endpoint;
+}
 
-  record_weighting(endpoint, endpoint_push_constants(n, model), n);
+void VulkanEvaluator::weigh(std::size_t n, const EndpointModel& model) {
+  const Stopwatch t0;
+  const gpu::ComputePipeline* endpoint = prepare_weighting(n, model);
+  if (!endpoint) return;
+  record_weighting(*endpoint, endpoint_push_constants(n, model), n);
+  // No reduction: its query and timestamp still close, so the profiling reads find them written.
+  if (statistics_) {
+    vkCmdBeginQuery(cmd_, statistics_, 1, 0);
+    vkCmdEndQuery(cmd_, statistics_, 1);
+  }
+  if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 3);
+  finish_recording();
+  submit_and_wait(0);
+  timings_.evaluate_ms = t0.ms();
+  read_gpu_timings();
+  check_validation();
+}
+
+WeightSummary VulkanEvaluator::evaluate(std::size_t n, const EndpointModel& model,
+                                        const Eigen::Quaternionf& reference_rotation) {
+  const Stopwatch t0;
+  const gpu::ComputePipeline* endpoint = prepare_weighting(n, model);
+  if (!endpoint) return {};
+  record_weighting(*endpoint, endpoint_push_constants(n, model), n);
   const int out = record_reduction(n, model, reference_rotation);
+  finish_recording();
   submit_and_wait(out);
   const float* r = static_cast<const float*>(records_[out].mapped());
   WeightPartial total;
@@ -138,11 +162,14 @@ int VulkanEvaluator::record_reduction(std::size_t n, const EndpointModel& model,
   if (statistics_) vkCmdEndQuery(cmd_, statistics_, 1);
   if (queries_) vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries_, 3);
   ctx_->end_label(cmd_);
+  return out;
+}
+
+void VulkanEvaluator::finish_recording() {
   // Results and log-weights are read by the host after the fence.
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_PIPELINE_STAGE_HOST_BIT);
   gpu::check(vkEndCommandBuffer(cmd_), "vkEndCommandBuffer");
-  return out;
 }
 
 void VulkanEvaluator::submit_and_wait(int out) {

@@ -63,6 +63,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   void set_points(const std::vector<Eigen::Vector3f>& points) override;
   WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                          const Eigen::Quaternionf& reference_rotation) override;
+  void weigh(std::size_t particle_count, const EndpointModel& model) override;
   const UpdateTimings& last_timings() const override { return timings_; }
   std::vector<ShaderStatistics> shader_statistics() const override;
 
@@ -85,12 +86,16 @@ class VulkanEvaluator final : public SensorEvaluator {
   void upload_map(const TsdfMap& map, std::uint64_t max_map_binding_bytes);
   void create_pipelines(bool subgroup_reduction);
   void allocate_descriptor_sets();
-  // evaluate()'s stages: the weighting pass's constants; recording the point upload and the weighting dispatch;
-  // recording the tree reduction (returns the records buffer that ends with the total); submitting and waiting for
-  // the fence; reading the timestamps and pipeline statistics (profiling).
+  // evaluate()'s stages: checking the call, the pipeline and uploading the likelihood table where the model changed
+  // (null: nothing to weigh); the weighting pass's constants; recording the point upload and the weighting dispatch;
+  // recording the tree reduction (returns the records buffer that ends with the total); ending the command buffer
+  // with the results visible to the host; submitting and waiting for the fence; reading the timestamps and pipeline
+  // statistics (profiling). weigh() records no reduction.
+  const gpu::ComputePipeline* prepare_weighting(std::size_t n, const EndpointModel& model);
   gpu::EndpointPushConstants endpoint_push_constants(std::size_t n, const EndpointModel& model) const;
   void record_weighting(const gpu::ComputePipeline& endpoint, const gpu::EndpointPushConstants& ep, std::size_t n);
   int record_reduction(std::size_t n, const EndpointModel& model, const Eigen::Quaternionf& reference_rotation);
+  void finish_recording();
   void submit_and_wait(int out);
   void read_gpu_timings();
 

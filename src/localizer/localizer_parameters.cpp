@@ -148,6 +148,9 @@ void set_sampling(FilterParameters& f, const Values& v) {
   f.subset_first.points = v.count("subset_points", limits::kMaxBeams);
   f.subset_first.share = v.number("subset_share");
   f.subset_first.min_particles = v.count("subset_min_particles");
+  f.subset_first.global_points = v.count("subset_global_points", limits::kMaxBeams);
+  f.subset_first.middle_points = v.count("subset_middle_points", limits::kMaxBeams);
+  f.subset_first.whole_share = v.number("subset_whole_share");
   f.seed = v.count("seed");
 }
 

@@ -193,14 +193,26 @@ std::vector<ParameterSpec> kld_and_resampling_tuning_specs(const FilterParameter
 std::vector<ParameterSpec> subset_first_specs(const FilterParameters& f) {
   return {
       {"subset_points", "K", std::to_string(f.subset_first.points),
-       "subset first: weigh every particle on K of the scan's points first and only the best subset_share on all "
+       "subset first: weigh every particle on K of the scan's points first and only the best subset_share on more "
        "of them, in sets of at least subset_min_particles (0 = off; not on a discrete GPU, where the whole scan is "
        "faster)",
        kAdvanced},
-      {"subset_share", "S", num(f.subset_first.share), "subset first: share of the particles weighed on the whole scan",
+      {"subset_share", "S", num(f.subset_first.share),
+       "subset first: share of the particles weighed past the first pass (in the middle pass, or on the whole scan "
+       "without one)",
        kAdvanced},
       {"subset_min_particles", "N", std::to_string(f.subset_first.min_particles),
        "subset first: only in sets of at least N particles", kAdvanced},
+      {"subset_global_points", "K", std::to_string(f.subset_first.global_points),
+       "subset first in a global search (until the belief first concentrates; not after a local start): every "
+       "particle on K points first (0 = no middle pass)",
+       kAdvanced},
+      {"subset_middle_points", "K", std::to_string(f.subset_first.middle_points),
+       "subset first in a global search: the best subset_share on K points in a middle pass, and only the best "
+       "subset_whole_share on the whole scan (none where K <= subset_global_points or K > half the scan)",
+       kAdvanced},
+      {"subset_whole_share", "S", num(f.subset_first.whole_share),
+       "subset first with a middle pass: share of the particles weighed on the whole scan", kAdvanced},
   };
 }
 

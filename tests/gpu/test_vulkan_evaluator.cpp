@@ -2,6 +2,9 @@
 // against the CPU reduction, on lavapipe with the validation layers on (any validation message fails).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <random>
+
 #include "tsdf_mcl/cpu/cpu_evaluator.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/sensor/weight_reduction.hpp"
@@ -228,6 +231,38 @@ TEST(VulkanEvaluator, ScansBeyondTheUniformRangeUseTheStorageBuffer) {
       const double ref = reference_log_weight(map, model, p.position(i), p.rotation(i), scan);
       ASSERT_NEAR(p.log_weight[i], ref, 1e-4 * std::abs(ref)) << i;
     }
+  }
+}
+
+// weigh(): evaluate()'s log-weights without the reduction pass, with the profiling queries off and on (the
+// reduction's query and timestamp still close, or reading them would wait forever).
+TEST(VulkanEvaluator, WeighingWithoutTheReductionGivesTheSameLogWeights) {
+  const TsdfMap map = test::make_room_map();
+  std::mt19937 rng(5);
+  const auto scan = test::random_scan(300, rng);
+  const std::size_t n = 1001;
+  for (const bool profile : {false, true}) {
+    SCOPED_TRACE(profile);
+    EvaluatorOptions options = vulkan_options();
+    options.profile = profile;
+    auto gpu = make_vulkan(map, options);
+    ASSERT_TRUE(gpu);
+    gpu->reserve(n, scan.size());
+    test::random_particles(gpu->particles(), n, rng, Eigen::Vector3f(-3, -2, 0), Eigen::Vector3f(3, 2, 3));
+    gpu->set_points(scan);
+    EndpointModel model;
+    model.weight_exponent = 0.4f;
+    gpu->evaluate(n, model, Eigen::Quaternionf::Identity());
+    const ParticleArrays p = gpu->particles();
+    const std::vector<float> evaluated(p.log_weight, p.log_weight + n);
+    std::fill(p.log_weight, p.log_weight + n, 0.0f);
+    gpu->weigh(n, model);
+    EXPECT_EQ(std::vector<float>(p.log_weight, p.log_weight + n), evaluated);
+    EXPECT_GT(gpu->last_timings().evaluate_ms, 0.0);
+    if (profile) {
+      EXPECT_GT(gpu->last_timings().weight_invocations, 0u);
+    }
+    gpu->weigh(0, model);  // nothing to weigh
   }
 }
 

@@ -1,5 +1,6 @@
 #include <cstdio>
 #include <sstream>
+#include <string>
 
 #include "commands.hpp"
 #include "options.hpp"
@@ -11,6 +12,13 @@
 namespace tsdf_mcl::cli {
 
 namespace {
+
+// A default share as the help prints it (0.2, not 0.200000).
+std::string share_text(double share) {
+  std::ostringstream text;
+  text << share;
+  return text.str();
+}
 
 // bench's options: the scene, the particle counts and spread, the weighing, the backends, the model, profiling.
 std::vector<OptionSpec> bench_options() {
@@ -25,16 +33,18 @@ std::vector<OptionSpec> bench_options() {
        "particle order: as drawn (as the filter keeps them) or sorted into Morton order of position"},
       {"weighing", "whole|subset_first", "whole",
        "cpu, vulkan: every particle on the whole scan, or subset first as the filter weighs large sets "
-       "(--subset_points, --subset_share)"},
+       "(--subset_points, --subset_share; with --spread global as a global search: --subset_global_points, "
+       "--subset_middle_points, --subset_whole_share)"},
       {"subset_points", "K", std::to_string(SubsetFirstOptions{}.points),
        "--weighing subset_first: points of the first pass"},
-      {"subset_share", "S",
-       [] {
-         std::ostringstream share;
-         share << SubsetFirstOptions{}.share;
-         return share.str();
-       }(),
-       "--weighing subset_first: share of the particles weighed on the whole scan"},
+      {"subset_share", "S", share_text(SubsetFirstOptions{}.share),
+       "--weighing subset_first: share of the particles weighed past the first pass"},
+      {"subset_global_points", "K", std::to_string(SubsetFirstOptions{}.global_points),
+       "--weighing subset_first --spread global: points of the first pass (0 = no middle pass)"},
+      {"subset_middle_points", "K", std::to_string(SubsetFirstOptions{}.middle_points),
+       "--weighing subset_first --spread global: points of the middle pass (none where K <= --subset_global_points)"},
+      {"subset_whole_share", "S", share_text(SubsetFirstOptions{}.whole_share),
+       "--weighing subset_first --spread global: share of the particles weighed on the whole scan"},
       {"backend", "LIST", "cpu,vulkan",
        "backends to time: cpu, vulkan, reference (baseline of the reference's CPU design)"},
       {"repetitions", "R", "7", "timed runs per measurement (after warm-up)"},
@@ -79,6 +89,9 @@ bench::BenchConfig bench_config(const Options& o) {
   config.subset_first_weighing = weighing == "subset_first";
   config.subset_first.points = o.count("subset_points", limits::kMaxBeams);
   config.subset_first.share = o.number("subset_share");
+  config.subset_first.global_points = o.count("subset_global_points", limits::kMaxBeams);
+  config.subset_first.middle_points = o.count("subset_middle_points", limits::kMaxBeams);
+  config.subset_first.whole_share = o.number("subset_whole_share");
   config.subset_first.min_particles = 1;  // the bench states the particle counts itself
   config.subset_first.validate();
   config.backends = o.list("backend");

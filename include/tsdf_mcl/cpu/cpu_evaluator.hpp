@@ -24,6 +24,7 @@ class CpuEvaluator final : public SensorEvaluator {
   void set_points(const std::vector<Eigen::Vector3f>& points) override;
   WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                          const Eigen::Quaternionf& reference_rotation) override;
+  void weigh(std::size_t particle_count, const EndpointModel& model) override;
   const UpdateTimings& last_timings() const override { return timings_; }
   // The fast path nearest lookups take: "AVX2", "NEON", or "" for the scalar path.
   const char* simd_path() const;
@@ -31,6 +32,7 @@ class CpuEvaluator final : public SensorEvaluator {
  private:
   ParticleArrays view(int set);
   void rebuild_tables(const EndpointModel& model);
+  void weigh_particles(std::size_t n, const EndpointModel& model);  // evaluate() without the reduction
 
   kernel::MapView map_view_;
   int threads_;

@@ -119,6 +119,11 @@ class SensorEvaluator {
   // Weights particles 0..n-1 of the active set against the current points; reduces.
   virtual WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                                  const Eigen::Quaternionf& reference_rotation) = 0;
+  // The log-weights of evaluate() without its reduction, for callers that reduce on the host after combining
+  // passes (SubsetFirstWeighing). The default runs evaluate().
+  virtual void weigh(std::size_t particle_count, const EndpointModel& model) {
+    evaluate(particle_count, model, Eigen::Quaternionf::Identity());
+  }
   virtual const UpdateTimings& last_timings() const = 0;
   // With EvaluatorOptions::profile on a driver that reports them; empty otherwise.
   virtual std::vector<ShaderStatistics> shader_statistics() const { return {}; }
