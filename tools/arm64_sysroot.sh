@@ -19,7 +19,7 @@ packages=(
   libhdf5-dev libembree-dev libyaml-cpp-dev libcairo2-dev fonts-dejavu-core libgtest-dev zlib1g-dev
 )
 
-if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+if ! grep -qx arm64 <<<"$(dpkg --print-foreign-architectures)"; then
   echo "arm64_sysroot.sh: arm64 is not a dpkg architecture here; run tools/setup.sh --arm64 (as root)" >&2
   exit 1
 fi

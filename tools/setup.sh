@@ -35,7 +35,7 @@ fi
 
 if [ "$arm64" = 1 ]; then
   packages+=(g++-aarch64-linux-gnu qemu-user)
-  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  if ! grep -qx arm64 <<<"$(dpkg --print-foreign-architectures)"; then
     "${sudo[@]}" dpkg --add-architecture arm64
     "${sudo[@]}" apt-get update -qq
   fi
@@ -43,7 +43,7 @@ fi
 
 missing=()
 for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  grep -q "install ok installed" <<<"$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null)" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup.sh: all packages present"

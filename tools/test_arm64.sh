@@ -40,7 +40,7 @@ fi
 tests=build/arm64/tests/tsdf_mcl_tests
 cli=build/arm64/tools/tsdf-mcl
 for f in "$tests" "$cli"; do
-  file -L "$f" | grep -q "ARM aarch64" || { echo "test_arm64.sh: $f is not an aarch64 binary" >&2; exit 1; }
+  grep -q "ARM aarch64" <<<"$(file -L "$f")" || { echo "test_arm64.sh: $f is not an aarch64 binary" >&2; exit 1; }
 done
 
 # The arm64 lavapipe and validation layer from the sysroot; their JSON's library paths (/usr/lib/aarch64-linux-gnu/...)
@@ -86,5 +86,5 @@ for name in tsdf-mcl libtsdf-mcl-dev; do
     { cat "$work/apt-$name.log" >&2; echo "test_arm64.sh: apt cannot resolve the Depends of $deb" >&2; exit 1; }
 done
 dpkg-deb -x "$work"/pkgs/tsdf-mcl_*_arm64.deb "$work/root"
-file "$work/root/usr/bin/tsdf-mcl" | grep -q "ARM aarch64" || { echo "test_arm64.sh: the arm64 package's program is not aarch64" >&2; exit 1; }
+grep -q "ARM aarch64" <<<"$(file "$work/root/usr/bin/tsdf-mcl")" || { echo "test_arm64.sh: the arm64 package's program is not aarch64" >&2; exit 1; }
 echo "test_arm64.sh: passed in $(($(date +%s) - start)) s"

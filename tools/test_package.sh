@@ -68,8 +68,10 @@ check_depends() {  # deb, binary path inside it
     path=$(awk -v l="$lib" '$1 == l && /x86-64|AArch64/ {print $NF; exit}' "$work/ldconfig.txt")
     [ -n "$path" ] || fail "$bin needs $lib, which is not installed here"
     pkg=$(owner "$path") || fail "no package owns $path ($lib, loaded by $bin)"
-    # Once (a loaded machine, 2026-11-28) the Depends lacked libvulkan1 and a rerun passed: say what CPack wrote.
-    echo "$depends" | grep -qx "$pkg" || {
+    # A here-string, not `echo | grep -q`: under pipefail, grep leaving at its match while echo still wrote the
+    # last line failed the pipeline on a loaded machine ("libvulkan1 ... which its Depends do not name", with
+    # libvulkan1 in them).
+    grep -qx "$pkg" <<<"$depends" || {
       echo "Depends of $(basename "$deb"): $(echo "$depends" | tr '\n' ' ')" >&2
       grep -i 'shlibdeps\|warning' "$work/cpack.log" >&2 || true
       fail "$(basename "$deb") loads $lib from $pkg, which its Depends do not name"
