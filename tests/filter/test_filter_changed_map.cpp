@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "filter_test_scene.hpp"
+#include "filter_test_runs.hpp"
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
@@ -24,57 +24,10 @@ constexpr double kScanPeriod = 0.5;  // s
 
 using test::Box;
 using test::box;
-
-std::unique_ptr<SensorEvaluator> cpu_evaluator(const TsdfMap& map) {
-  EvaluatorOptions o;
-  o.backend = Backend::kCpu;
-  o.cpu_threads = 2;
-  return make_evaluator(map, o);
-}
-
-FilterParameters small_building() {
-  FilterParameters p;
-  p.initial_particles = 20000;
-  p.kld.max_particles = 20000;
-  p.kld.min_particles = 300;
-  p.global_search.candidates = 200000;
-  p.update_min_d = 0.0;
-  p.update_min_a = 0.0;
-  return p;
-}
-
-struct Scans {
-  std::vector<std::vector<Eigen::Vector3f>> dense, points;
-};
-Scans scan_route(const std::vector<Box>& boxes, const std::vector<Pose>& route, std::uint64_t seed) {
-  Rng rng(seed);
-  ScanPreprocessing o;
-  o.max_beams = 256;
-  ScanPreprocessor pre(o);
-  Scans s;
-  for (std::size_t i = 0; i < route.size(); ++i) {
-    s.dense.push_back(test::simulate_scan(boxes, route[i], rng));
-    s.points.push_back(pre.process(s.dense.back(), i));
-  }
-  return s;
-}
-
-// Poses 0.3 m apart along the waypoints at sensor height 0.9 m above `floor_z`, yaw along the path, a little
-// height and tilt wobble.
-std::vector<Pose> route_through(const std::vector<Eigen::Vector2d>& waypoints, double floor_z = 0.0) {
-  std::vector<Pose> poses;
-  for (std::size_t seg = 0; seg + 1 < waypoints.size(); ++seg) {
-    const Eigen::Vector2d a = waypoints[seg], b = waypoints[seg + 1];
-    const double yaw = std::atan2((b - a).y(), (b - a).x());
-    for (double s = 0.0; s < (b - a).norm(); s += 0.3) {
-      const Eigen::Vector2d p = a + s * (b - a).normalized();
-      const double t = static_cast<double>(poses.size());
-      poses.push_back(pose_from_xyz_rpy(p.x(), p.y(), floor_z + 0.9 + 0.03 * std::sin(0.3 * t),
-                                        0.02 * std::sin(0.5 * t), 0.02 * std::cos(0.4 * t), yaw));
-    }
-  }
-  return poses;
-}
+using test::cpu_evaluator;
+using test::route_through;
+using test::scan_route;
+using test::Scans;
 
 // TSDF_MCL_TEST_DEBUG=1 prints every step (for tuning, never in CI).
 void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
@@ -115,7 +68,7 @@ FilterRun track_route(const TsdfMap& map, const std::vector<Box>& boxes, const s
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 11);
   const Scans scans = scan_route(boxes, truth, 6);
   auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, small_building(), 256);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   filter.initialize_local(truth[0]);
   return run(filter, scans, truth, odometry);
 }
@@ -249,7 +202,7 @@ Flight fly_above_the_mapped_band(bool frontier_evidence, bool twin = false,
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 23);
   const Scans scans = scan_route(boxes, truth, 4);
   auto eval = cpu_evaluator(map);
-  FilterParameters p = small_building();
+  FilterParameters p = test::small_building_parameters();
   p.frontier_evidence = frontier_evidence;
   p.wall_tilt_information = wall_tilt_information;
   ParticleFilter filter(map, *eval, p, 256);
@@ -352,7 +305,7 @@ TEST(ChangedMap, FurnitureMovedAndADoorOpenedAfterMapping) {
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 13);
   const Scans scans = scan_route(changed, truth, 8);
   auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, small_building(), 256);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   filter.initialize_local(truth[0]);
   const FilterRun r = run(filter, scans, truth, odometry);
   std::size_t converged = 0;
@@ -399,7 +352,7 @@ TEST(ChangedMap, TwoFloorsOfOnePlanNeverClaimTheWrongFloor) {
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 17);
   const Scans scans = scan_route(boxes, truth, 9);
   auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, small_building(), 256);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   ScanExtras extras;
   extras.dense = &scans.dense[0];
   filter.initialize_global(scans.points[0], extras);

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "filter_test_scene.hpp"
+#include "filter_test_runs.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
 #include "tsdf_mcl/filter/scan_gravity.hpp"
@@ -21,6 +21,9 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kScanPeriod = 0.5;  // s
 
 using test::Box;
+using test::cpu_evaluator;
+using test::scan_route;
+using test::Scans;
 
 Pose mirrored(const Pose& p) {
   Pose m = Pose::Identity();
@@ -30,21 +33,7 @@ Pose mirrored(const Pose& p) {
 }
 
 // From room A through its door and along the corridor past the niche: 0.3 m steps, yaw along the path.
-std::vector<Pose> twin_wing_route() {
-  const std::vector<Eigen::Vector2d> waypoints = {{1.5, 3.0}, {4.5, 4.0}, {6.1, 4.0}, {16.5, 4.0}};
-  std::vector<Pose> poses;
-  for (std::size_t seg = 0; seg + 1 < waypoints.size(); ++seg) {
-    const Eigen::Vector2d a = waypoints[seg], b = waypoints[seg + 1];
-    const double yaw = std::atan2((b - a).y(), (b - a).x());
-    for (double s = 0.0; s < (b - a).norm(); s += 0.3) {
-      const Eigen::Vector2d p = a + s * (b - a).normalized();
-      const double t = static_cast<double>(poses.size());
-      poses.push_back(pose_from_xyz_rpy(p.x(), p.y(), 0.9 + 0.03 * std::sin(0.3 * t), 0.02 * std::sin(0.5 * t),
-                                        0.02 * std::cos(0.4 * t), yaw));
-    }
-  }
-  return poses;
-}
+std::vector<Pose> twin_wing_route() { return test::route_through({{1.5, 3.0}, {4.5, 4.0}, {6.1, 4.0}, {16.5, 4.0}}); }
 
 // TSDF_MCL_TEST_DEBUG=1 prints every step (for tuning, never in CI).
 void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
@@ -58,42 +47,6 @@ void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
                  h.inlier_ratio);
   }
   std::fprintf(stderr, "\n");
-}
-
-std::unique_ptr<SensorEvaluator> cpu_evaluator(const TsdfMap& map) {
-  EvaluatorOptions o;
-  o.backend = Backend::kCpu;
-  o.cpu_threads = 2;
-  return make_evaluator(map, o);
-}
-
-// Defaults but for the sizes: a small building needs fewer hypotheses.
-FilterParameters prior_free() {
-  FilterParameters p;
-  p.initial_particles = 20000;
-  p.kld.max_particles = 20000;
-  p.kld.min_particles = 300;
-  p.global_search.candidates = 200000;
-  p.update_min_d = 0.0;
-  p.update_min_a = 0.0;
-  return p;
-}
-
-// Scans of a route: dense (for the gravity estimate) and preprocessed (for the sensor update).
-struct Scans {
-  std::vector<std::vector<Eigen::Vector3f>> dense, points;
-};
-Scans scan_route(const std::vector<Box>& boxes, const std::vector<Pose>& route, std::uint64_t seed) {
-  Rng rng(seed);
-  ScanPreprocessing o;
-  o.max_beams = 256;
-  ScanPreprocessor pre(o);
-  Scans s;
-  for (std::size_t i = 0; i < route.size(); ++i) {
-    s.dense.push_back(test::simulate_scan(boxes, route[i], rng));
-    s.points.push_back(pre.process(s.dense.back(), i));
-  }
-  return s;
 }
 
 TEST(ScanGravity, FindsUpAndHeightOnTiltedAndSidewaysSensors) {
@@ -141,7 +94,7 @@ TEST(GlobalSearch, LocalizesWithoutPriorsAndClaimsConvergenceOnlyWhenRight) {
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 5);
   const Scans scans = scan_route(boxes, truth, 3);
   auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, prior_free(), 256);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   ScanExtras extras;
   extras.dense = &scans.dense[0];
   filter.initialize_global(scans.points[0], extras);
@@ -173,7 +126,7 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
   const Scans scans = scan_route(boxes, truth, 5);
   auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, prior_free(), 256);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   ScanExtras extras;
   extras.dense = &scans.dense[0];
   filter.initialize_global(scans.points[0], extras);
@@ -215,7 +168,7 @@ TEST(GlobalSearch, AbandonsAForcedWrongLock) {
   const std::vector<Pose> odometry = test::drifting_odometry(truth, 9);
   const Scans scans = scan_route(boxes, truth, 4);
   auto eval = cpu_evaluator(map);
-  FilterParameters p = prior_free();
+  FilterParameters p = test::small_building_parameters();
   ParticleFilter filter(map, *eval, p, 256);
   Pose wrong = truth[0];
   wrong.translation() += Eigen::Vector3d(4.0, 3.0, 0.0);

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "filter_test_scene.hpp"
+#include "filter_test_runs.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
@@ -19,6 +19,8 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kScanPeriod = 0.5;  // s
+
+using test::cpu_evaluator;
 
 struct World {
   std::vector<test::Box> boxes = test::office_boxes();
@@ -55,13 +57,6 @@ FilterParameters ground_robot() {
   p.update_min_d = 0.0;
   p.update_min_a = 0.0;
   return p;
-}
-
-std::unique_ptr<SensorEvaluator> cpu_evaluator(const TsdfMap& map, int threads = 2) {
-  EvaluatorOptions o;
-  o.backend = Backend::kCpu;
-  o.cpu_threads = threads;
-  return make_evaluator(map, o);
 }
 
 struct FilterRun {
