@@ -19,6 +19,9 @@
 # aisles (between look-alike racks; the see-through racks let the map hold them) and drives up one of them;
 # `avz-skip` maps avz without entering one of the east rooms and ends its test route in it; `office-moved` maps
 # with furniture seed 1 and tests in the same office furnished by seed 2 (furniture moved after mapping).
+# `two-storey` (issue 16's multi-storey building): the office on two storeys of one plan, furnished alike, joined
+# by a staircase; the mapping run covers both storeys, odd seeds' test routes run on the upper storey and even
+# seeds' on the lower, and the staircase is the landmark (the one thing that tells the storeys apart).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -62,7 +65,7 @@ scene_args() {  # the simulate flags of a scene name
     office-skip|office-moved) echo "--scene office" ;;
     symmetric-skip) echo "--scene symmetric" ;;
     warehouse-skip) echo "--scene warehouse" ;;
-    office|symmetric|warehouse) echo "--scene $1" ;;
+    office|symmetric|warehouse|two-storey) echo "--scene $1" ;;
     avz|avz-skip)
       local mesh=../shared/data/avz/avz_no_roof.stl
       [ -e "$mesh" ] || { echo "localization_matrix.sh: $mesh is absent (the avz scene needs ../shared/data)" >&2; return 1; }
@@ -79,8 +82,9 @@ mapping_args() {  # extra simulate flags of a scene's mapping run
     avz-skip) echo "--skip_areas 1.3,-2.3,9,3.7" ;;
   esac
 }
-test_args() {  # extra simulate flags of a scene's test runs
+test_args() {  # extra simulate flags of a scene's test runs (scene, seed)
   case "$1" in
+    two-storey) echo "--storey $(( $2 % 2 ))" ;;  # odd seeds on the upper storey, even ones on the lower
     office-skip) echo "--start 20,10.2,0 --waypoints 42,10.2;42,15" ;;
     symmetric-skip) echo "--start 12,8,0 --waypoints 29,8;29,12.5" ;;
     warehouse-skip) echo "--start 6,4,0 --waypoints 20,4;20,19" ;;
@@ -115,7 +119,7 @@ for scene in "${scene_list[@]}"; do
           rm -rf "$run"
           mkdir -p "$run"
           # shellcheck disable=SC2086
-          "$cli" simulate $sargs $(test_args "$scene") --lidar "$lidar" --route test --platform "$platform" --seed "$seed" \
+          "$cli" simulate $sargs $(test_args "$scene" "$seed") --lidar "$lidar" --route test --platform "$platform" --seed "$seed" \
             --walkers "$walkers" --length "$length" -o "$run/test" >/dev/null 2>"$run/simulate.log"
         fi
         rm -rf "${run:?}/$tag"
@@ -167,7 +171,7 @@ judged = [r for r in rows if "error" not in r and r.get("landmark_seen_scan", 0)
 def share(r): return r.get("after_landmark_localized", r.get("localized_fraction"))
 def lost(r): return r.get("after_landmark_lost_tracks", r.get("lost_tracks"))
 guesses = len([r for r in rows if "landmark_seen_scan" in r and r["landmark_seen_scan"] is None])
-unjudged = f" ({guesses} more never see the landmark that tells the mirror images apart)" if guesses else ""
+unjudged = f" ({guesses} more never see the landmark that tells look-alike places apart)" if guesses else ""
 print(f"matrix: over the {len(judged)} runs that can tell where they are{unjudged}: "
       f"{len([r for r in judged if (lost(r) or 0) > 0])} with a lost track, "
       f"{len([r for r in judged if (share(r) or 0) >= 0.95])} at least 95 % localized")

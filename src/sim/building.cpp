@@ -34,8 +34,8 @@ void add_wall(TriangleMesh& mesh, bool along_x, float line, float from, float to
 void add_shell(TriangleMesh& mesh, const Shell& s, const std::vector<Opening>& south_openings) {
   const float m = s.outer_wall;
   const float top = s.wall_top();
-  add_block(mesh, {-m, -m, s.length + m, s.width + m}, -s.slab, 0.0f);                  // floor slab
-  add_block(mesh, {-m, -m, s.length + m, s.width + m}, s.ceiling, s.ceiling + s.slab);  // ceiling slab
+  if (s.floor_slab) add_block(mesh, {-m, -m, s.length + m, s.width + m}, -s.slab, 0.0f);
+  if (s.ceiling_slab) add_block(mesh, {-m, -m, s.length + m, s.width + m}, s.ceiling, s.ceiling + s.slab);
   add_wall(mesh, true, -m / 2, -m, s.length + m, m, s.wall_bottom(), top, south_openings);
   add_block(mesh, {-m, s.width, s.length + m, s.width + m}, s.wall_bottom(), top);
   add_block(mesh, {-m, 0.0f, 0.0f, s.width}, s.wall_bottom(), top);

@@ -37,6 +37,8 @@ void add_wall(TriangleMesh& mesh, bool along_x, float line, float from, float to
 struct Shell {
   float length, width, ceiling;
   float slab, outer_wall, sink;
+  // A storey of a taller building leaves out the slab it shares with the storey below or above.
+  bool floor_slab = true, ceiling_slab = true;
   // Walls and pillars stand from inside the floor slab to inside the ceiling slab.
   constexpr float wall_bottom() const { return -sink; }
   constexpr float wall_top() const { return ceiling + sink; }

@@ -143,7 +143,15 @@ void add_corridor_furniture(TriangleMesh& mesh) {
   add_block(mesh, {0.0f, s + 0.3f, 0.5f, s + 1.1f}, -0.02f, 1.6f);  // vending machine at the west end
 }
 
-void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint64_t seed) {
+// The two-storey office's staircase: a straight flight against the lab's south wall rising along +x from the
+// lower floor to the upper one (20 steps of 0.28 x 0.16 m), under an opening in the slab between the storeys.
+constexpr float kStoreyRise = kCeiling + kSlab;  // the upper storey's floor
+constexpr int kSteps = 20;
+constexpr Rect kFlight{28.0f, 0.0f, 28.0f + 0.28f * kSteps, 1.1f};
+constexpr Rect kOpening{29.6f, 0.0f, kFlight.x1, 1.2f};  // in the slab; the flight's top step is the floor above
+constexpr float kParapet = 0.1f, kParapetHeight = 1.0f;  // the upper storey's railing round the opening
+
+void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint64_t seed, bool stairwell) {
   const float half = kWall / 2;
   Rect interior{room.x0 <= 0.0f ? 0.0f : room.x0 + half, room.south ? 0.0f : kCorridorNorth + half,
                 room.x1 >= kLength ? kLength : room.x1 - half, room.south ? kCorridorSouth - half : kWidth};
@@ -178,6 +186,7 @@ void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint6
       break;
     case RoomKind::lab:
       f.keep_clear({30.3f, 4.0f, 31.7f, 5.0f});
+      if (stairwell) f.keep_clear({kFlight.x0 - 1.0f, -1.0f, kFlight.x1 + 1.2f, kOpening.y1 + kParapet + 0.9f});
       f.place_centre({27.5f, 3.0f, 29.5f, 3.9f}, 0.9f, false);
       f.place_centre({32.5f, 4.0f, 34.5f, 4.9f}, 0.9f, false);
       f.line_walls({F::kCounter, F::kTallCabinet, F::kShelf});
@@ -205,18 +214,65 @@ void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint6
   }
 }
 
-}  // namespace
-
-TriangleMesh office_scene(std::uint64_t seed) {
+// One storey of the office: its shell (with the slabs asked for), floor levels, walls, pillars and furniture.
+TriangleMesh office_storey(std::uint64_t seed, bool floor_slab, bool ceiling_slab, bool stairwell) {
   TriangleMesh mesh;
-  add_shell(mesh, {kLength, kWidth, kCeiling, kSlab, kOuterWall, kSink});
+  Shell shell{kLength, kWidth, kCeiling, kSlab, kOuterWall, kSink};
+  shell.floor_slab = floor_slab;
+  shell.ceiling_slab = ceiling_slab;
+  add_shell(mesh, shell);
   add_levels(mesh);
   const std::vector<Room> all = rooms();
   add_walls(mesh, all);
   add_pillars(mesh);
   add_corridor_furniture(mesh);
-  for (std::size_t i = 0; i < all.size(); ++i) furnish(mesh, all[i], i, seed);
+  for (std::size_t i = 0; i < all.size(); ++i) furnish(mesh, all[i], i, seed, stairwell);
   return mesh;
+}
+
+// The slab between the storeys (the lower one's ceiling, the upper one's floor) round the opening; the pieces
+// overlap rather than share faces.
+void add_slab_with_opening(TriangleMesh& mesh) {
+  const float m = kOuterWall, z0 = kCeiling, z1 = kStoreyRise;
+  add_block(mesh, {-m, -m, kOpening.x0, kWidth + m}, z0, z1);
+  add_block(mesh, {kOpening.x1, -m, kLength + m, kWidth + m}, z0, z1);
+  add_block(mesh, {kOpening.x0 - 0.05f, kOpening.y1, kOpening.x1 + 0.05f, kWidth + m}, z0, z1);
+  add_block(mesh, {kOpening.x0 - 0.05f, -m, kOpening.x1 + 0.05f, kOpening.y0}, z0, z1);
+}
+
+}  // namespace
+
+TriangleMesh office_scene(std::uint64_t seed) { return office_storey(seed, true, true, false); }
+
+BuiltInScene two_storey_scene(std::uint64_t seed) {
+  BuiltInScene scene;
+  scene.mesh = office_storey(seed, true, false, true);
+  TriangleMesh upper = office_storey(seed, false, true, true);
+  for (Vector3f& v : upper.vertices) v.z() += kStoreyRise;
+  scene.mesh.append(upper);
+  add_slab_with_opening(scene.mesh);
+  scene.storey_floors = {0.0f, kStoreyRise};
+
+  // The staircase and the railing round its opening: what a scan sees differently on the two storeys.
+  Landmark landmark;
+  landmark.name = "staircase";
+  landmark.first_triangle = scene.mesh.triangles.size();
+  for (int k = 0; k < kSteps; ++k) {  // solid steps: nothing under the flight
+    const float x = kFlight.x0 + 0.28f * static_cast<float>(k);
+    // Each step reaches 2 cm into the next and under the floor: overlapping solids, no shared faces.
+    add_block(scene.mesh, {x, kFlight.y0 - 0.05f, x + 0.3f, kFlight.y1}, -0.02f,
+              kStoreyRise / kSteps * static_cast<float>(k + 1));
+  }
+  const float rail0 = kStoreyRise - 0.02f, rail1 = kStoreyRise + kParapetHeight;
+  add_block(scene.mesh, {kOpening.x0 - kParapet, kOpening.y1, kOpening.x1, kOpening.y1 + kParapet}, rail0, rail1);
+  add_block(scene.mesh, {kOpening.x0 - kParapet, kOpening.y0 - 0.05f, kOpening.x0, kOpening.y1 + 0.05f}, rail0, rail1);
+  landmark.triangle_count = scene.mesh.triangles.size() - landmark.first_triangle;
+  landmark.box =
+      Eigen::AlignedBox3f(Vector3f(kFlight.x0, kFlight.y0, 0.0f), Vector3f(kOpening.x1, kOpening.y1 + kParapet, rail1));
+  // In the lab, in front of the flight: its steps (below) or the railing and the hole (above) fill the view.
+  landmark.viewpoint = Eigen::Vector2d(31.0, 2.8);
+  scene.landmark = landmark;
+  return scene;
 }
 
 }  // namespace tsdf_mcl::sim

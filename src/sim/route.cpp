@@ -430,7 +430,38 @@ Route Route::truncated(double max_duration, double max_length) const {
     if (beyond && kept.size() >= 2) break;
     kept.push_back(s);
   }
-  return Route(std::move(kept), waypoints_);
+  Route out(std::move(kept), waypoints_);
+  for (const auto& p : pauses_) {
+    if (p.first < out.duration()) out.pauses_.push_back(p);
+  }
+  return out;
+}
+
+Route Route::joined(const std::vector<Route>& parts, double pause) {
+  if (parts.empty()) throw Error("joining routes: no route");
+  if (!(pause > 0.0)) throw Error("joining routes: the pause between them must be positive");
+  std::vector<Sample> samples;
+  std::vector<Eigen::Vector2d> waypoints;
+  std::vector<std::pair<double, double>> pauses;
+  double time = 0.0, distance = 0.0;
+  for (const Route& part : parts) {
+    if (!samples.empty()) {
+      pauses.emplace_back(samples.back().time, samples.back().time + pause);
+      time = samples.back().time + pause;
+      distance = samples.back().distance;
+    }
+    for (const auto& p : part.pauses_) pauses.emplace_back(time + p.first, time + p.second);
+    for (const Sample& s : part.samples_) samples.push_back({time + s.time, distance + s.distance, s.world_T_base});
+    waypoints.insert(waypoints.end(), part.waypoints_.begin(), part.waypoints_.end());
+  }
+  Route out(std::move(samples), std::move(waypoints));
+  out.pauses_ = std::move(pauses);
+  return out;
+}
+
+bool Route::overlaps_pause(double t0, double t1) const {
+  return std::any_of(pauses_.begin(), pauses_.end(),
+                     [&](const std::pair<double, double>& p) { return t0 <= p.second && p.first <= t1; });
 }
 
 Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const RobotModel& robot, RouteKind kind,

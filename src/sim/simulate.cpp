@@ -42,7 +42,11 @@ enum Stream : std::uint64_t {
   kWalkerStream = 14
 };
 
-constexpr const char* kBuiltInScenes[] = {"office", "symmetric", "warehouse"};
+constexpr const char* kBuiltInScenes[] = {"office", "symmetric", "warehouse", "two-storey"};
+// Between the storeys of a mapping route the robot is carried (up the stairs): no scans in this time, nor in
+// kPauseMargin either side of it (the platforms smooth their motion over a quarter second).
+constexpr double kCarryPause = 5.0;   // s
+constexpr double kPauseMargin = 0.5;  // s
 
 void require(bool ok, const std::string& message) {
   if (!ok) throw Error(message);
@@ -93,7 +97,7 @@ BuiltInScene load_scene(const SimulationOptions& o) {
   } else {
     if (!fs::is_regular_file(o.scene)) {
       throw Error("scene '" + o.scene +
-                  "' is neither a built-in scene (office, symmetric, warehouse) nor an existing mesh file");
+                  "' is neither a built-in scene (office, symmetric, warehouse, two-storey) nor an existing mesh file");
     }
     scene.mesh = load_mesh(o.scene);
     if (scene.mesh.triangles.empty()) throw Error("mesh " + o.scene + " has no triangles");
@@ -266,6 +270,7 @@ nlohmann::json scene_json(const RunRecord& r) {
       {"max", {mesh.max_corner().x(), mesh.max_corner().y(), mesh.max_corner().z()}},
       {"traversable_area_m2", r.summary.traversable_area_m2},
       {"file", "scene.ply"}};
+  if (!r.scene.storey_floors.empty()) j["storey_floors"] = r.scene.storey_floors;
   if (r.scene.mirror) {
     const Vector2d centre = r.scene.mirror->translation().head<2>() / 2.0;
     char rule[320];
@@ -342,6 +347,12 @@ nlohmann::json route_json(const RunRecord& r) {
                       {"duration_s", r.route.duration()},
                       {"waypoints", waypoints},
                       {"start", pose_json(r.route.samples().front().world_T_base)}};
+  if (!r.scene.storey_floors.empty() && o.route == RouteKind::test) j["storey"] = o.storey;
+  if (!r.route.pauses().empty()) {
+    nlohmann::json pauses = nlohmann::json::array();
+    for (const auto& [from, to] : r.route.pauses()) pauses.push_back({from, to});
+    j["carried"] = {{"intervals_s", pauses}, {"note", "carried between storeys: no scans then, nor 0.5 s either side"}};
+  }
   if (o.start) j["requested_start"] = {o.start->x(), o.start->y(), o.start->z()};
   if (!o.waypoints.empty()) {
     nlohmann::json requested = nlohmann::json::array();
@@ -435,14 +446,15 @@ struct Sweep {
 };
 
 // Which sweeps become scans, and their poses: sequential, as odometry integrates every sweep.
-std::vector<Sweep> plan_sweeps(const SimulationOptions& options, const SensorTrajectory& trajectory, const Crowd& crowd,
-                               std::size_t sweeps, double period) {
+std::vector<Sweep> plan_sweeps(const SimulationOptions& options, const Route& route, const SensorTrajectory& trajectory,
+                               const Crowd& crowd, std::size_t sweeps, double period) {
   std::vector<Sweep> kept;
   Odometry odometry(options.odometry, mix_key(options.seed, kOdometryStream), trajectory.first_odometry_pose(period));
   for (std::size_t i = 0; i < sweeps; ++i) {
     const double t = static_cast<double>(i + 1) * period;
     const Pose sensor_end = trajectory.sensor_pose(t);
     const Pose odom_T_sensor = odometry.step(trajectory.odometry_frame_pose(t)) * trajectory.odometry_frame_T_sensor();
+    if (route.overlaps_pause(t - period - kPauseMargin, t + kPauseMargin)) continue;  // carried between storeys
     if (!kept.empty() && options.scan_spacing_m > 0.0) {
       const Pose moved = kept.back().end.inverse() * sensor_end;
       if (moved.translation().norm() < options.scan_spacing_m &&
@@ -537,8 +549,21 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   if (options.platform != Platform::drone) robot.height = std::max(robot.height, robot.sensor_height + 0.1);
   const double min_floor =
       std::isnan(options.ground_plane_z) ? -std::numeric_limits<double>::infinity() : options.ground_plane_z - 0.01;
-  TraversabilityGrid grid(static_scene, mesh, robot, 0.1, min_floor);
-  grid.exclude(options.skip_areas);
+  const std::size_t storeys = std::max<std::size_t>(1, scene.storey_floors.size());
+  if (options.storey >= storeys) {
+    throw Error("storey " + std::to_string(options.storey) + ": the scene has " +
+                (storeys == 1 ? std::string("one storey (0)")
+                              : std::to_string(storeys) + " storeys (0 to " + std::to_string(storeys - 1) + ")"));
+  }
+  // Each storey's traversable floor: the lowest floor from the storey's height up. A test route runs on one
+  // storey, a mapping route covers each in turn.
+  std::vector<TraversabilityGrid> grids;
+  const bool mapping = options.route == RouteKind::mapping;
+  for (std::size_t k = mapping ? 0 : options.storey; k < (mapping ? storeys : options.storey + 1); ++k) {
+    grids.emplace_back(static_scene, mesh, robot, 0.1, k == 0 ? min_floor : scene.storey_floors[k] - 0.01);
+    grids.back().exclude(options.skip_areas);
+  }
+  const TraversabilityGrid& grid = grids.front();  // where walkers and obstacles go (test routes only)
 
   // A test route is planned at least as long as the run (requested waypoints say where it ends); a mapping
   // route covers the floor.
@@ -550,7 +575,11 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   const double plan_length = options.duration_s > 0.0 ? options.duration_s * robot.speed + 5.0 : stop_length;
   RouteRequest request{options.start, options.waypoints, std::nullopt};
   if (scene.landmark) request.landmark = scene.landmark->viewpoint;
-  const Route route = plan_route(grid, static_scene, robot, options.route, options.seed, plan_length, request)
+  std::vector<Route> parts;
+  for (const TraversabilityGrid& g : grids) {
+    parts.push_back(plan_route(g, static_scene, robot, options.route, options.seed, plan_length, request));
+  }
+  const Route route = (parts.size() == 1 ? parts.front() : Route::joined(parts, kCarryPause))
                           .truncated(options.duration_s, stop_length);
   const SensorTrajectory trajectory(route, static_scene, options.platform, robot, options.sensor_tilt_deg,
                                     mix_key(options.seed, kPlatformStream));
@@ -566,14 +595,14 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   const auto sweeps = static_cast<std::size_t>(std::floor(route.duration() / period + 1e-9));
   if (sweeps == 0) throw Error("the route takes less than one scan period; ask for a longer duration or length");
 
-  const std::vector<Sweep> kept = plan_sweeps(options, trajectory, crowd, sweeps, period);
+  const std::vector<Sweep> kept = plan_sweeps(options, route, trajectory, crowd, sweeps, period);
 
   ScanResults results = write_scans(options, ray_caster, lidar, scene, route, trajectory, kept, out_dir);
   SimulationSummary& summary = results.summary;
   const LandmarkSightings& sightings = results.sightings;
   summary.route_length_m = route.length();
   summary.duration_s = route.duration();
-  summary.traversable_area_m2 = grid.free_area();
+  for (const TraversabilityGrid& g : grids) summary.traversable_area_m2 += g.free_area();
   summary.has_landmark = scene.landmark.has_value();
   summary.landmark_first_seen_scan = sightings.first_scan;
   if (scene.landmark) write_landmark_points(out_dir / "landmark_points.txt", sightings);

@@ -85,7 +85,10 @@ TEST(SimCli, ScenePlatformAndRouteOptionsRejectBadValues) {
       {"--waypoints '3,10;90,10'", "waypoint 2 (90.00, 10.00)"},
       {"--start 3,30,0", "route start"},
       {"--route mapping --waypoints '3,10;8,10'", "test routes"},
-      {"--scene castle", "office, symmetric, warehouse"},
+      {"--scene castle", "office, symmetric, warehouse, two-storey"},
+      {"--storey 1", "the scene has one storey (0)"},
+      {"--scene two-storey --storey 2", "the scene has 2 storeys (0 to 1)"},
+      {"--scene two-storey --route mapping --storey 1", "--storey"},
       {"--route mapping --walkers 2", "walkers"},
       {"--walkers 60", "at most 50 walkers"},
   };

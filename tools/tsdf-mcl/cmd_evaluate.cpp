@@ -240,10 +240,10 @@ nlohmann::json metrics_json(const TrajectoryMetrics& m, const MetricsOptions& mo
   return j;
 }
 
-// A simulated scene's landmark (simulate's simulation.json, the symmetric building's display cabinet): the one
-// thing that tells the building's mirror images apart. Before a run first sees it, which of two mirror poses is
-// right is a guess no localizer can do better than chance at; the estimates from that scan on are what a
-// localizer can be judged on.
+// A simulated scene's landmark (simulate's simulation.json: the symmetric building's display cabinet, the
+// two-storey office's staircase): the one thing that tells the building's look-alike places apart. Before a run
+// first sees it, which of them is right is a guess no localizer can do better than chance at; the estimates from
+// that scan on are what a localizer can be judged on.
 struct Landmark {
   std::string name;
   std::optional<std::size_t> first_seen_scan;  // none: the run never sees it
@@ -314,8 +314,8 @@ void print_landmark_verdict(const nlohmann::json& j) {
   const std::string name = j["landmark"].get<std::string>();
   if (j["first_seen_scan"].is_null()) {
     std::fprintf(stderr,
-                 "evaluate: the run never sees the %s, the only thing that tells the building's mirror images apart: "
-                 "which of the two is right is a guess\n",
+                 "evaluate: the run never sees the %s, the only thing that tells the building's look-alike places "
+                 "apart: which of them is right is a guess\n",
                  name.c_str());
     return;
   }

@@ -89,9 +89,10 @@ std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> areas_of(const std::str
 // simulate's options: the scene, the sensor and its carrier, the route and how long, noise, the output.
 std::vector<OptionSpec> simulate_options() {
   return with_verbosity_options({
-      {"scene", "office|symmetric|warehouse|MESH", "office",
+      {"scene", "office|symmetric|warehouse|two-storey|MESH", "office",
        "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
-       "a 40 x 25 m warehouse with pallet racks), or a mesh file (STL/PLY/OBJ, metres, z up)"},
+       "a 40 x 25 m warehouse with pallet racks; the office on two storeys of one plan joined by a staircase), "
+       "or a mesh file (STL/PLY/OBJ, metres, z up)"},
       {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets)"},
       {"ground_plane", "Z|none", "none",
        "add a ground slab with its top at height Z under the mesh, for meshes without a floor (avz: 0)"},
@@ -105,6 +106,9 @@ std::vector<OptionSpec> simulate_options() {
        "seed says"},
       {"waypoints", "X,Y;X,Y;...", "",
        "test route: drive through these points (m) in order and stop at the last one (quote the ';')"},
+      {"storey", "K", "0",
+       "multi-storey scenes: the storey a test route runs on (0 the lowest); a mapping route covers every "
+       "storey"},
       {"skip_areas", "X0,Y0,X1,Y1;...", "",
        "mapping route: never enter these rectangles (m), e.g. rooms the mapping run skipped (quote the ';')"},
       {"platform", "ground|handheld|drone", "ground",
@@ -177,6 +181,10 @@ sim::SimulationOptions simulation_options(const Options& o) {
   s.sensor_tilt_deg = o.number("sensor_tilt");
   if (o.has("start")) s.start = start_of(o);
   if (o.has("waypoints")) s.waypoints = waypoints_of(o.text("waypoints"));
+  s.storey = o.count("storey");
+  if (o.has("storey") && s.route == sim::RouteKind::mapping) {
+    throw Error("--storey picks a test route's storey; a mapping route covers every storey");
+  }
   if (o.has("skip_areas")) s.skip_areas = areas_of(o.text("skip_areas"));
   s.noise.range_sigma = o.number("range_noise");
   s.noise.dropout = o.number("dropout");
@@ -192,14 +200,15 @@ sim::SimulationOptions simulation_options(const Options& o) {
 }  // namespace
 
 int run_simulate(int argc, char** argv) {
-  Options o("simulate",
-            "tsdf-mcl simulate --scene office|symmetric|warehouse|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
-            "                         [--route mapping|test] [--seed N] [--start X,Y,YAW] [--waypoints X,Y;X,Y;...]\n"
-            "                         [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
-            "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
-            "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
-            "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
-            simulate_options(), argc, argv, 2);
+  Options o(
+      "simulate",
+      "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+      "                         [--route mapping|test] [--seed N] [--storey K] [--start X,Y,YAW]\n"
+      "                         [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
+      "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
+      "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
+      "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
+      simulate_options(), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;

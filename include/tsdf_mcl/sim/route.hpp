@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/sim/traversability.hpp"
@@ -34,10 +35,18 @@ class Route {
   // The first part, up to max_duration and max_length (<= 0: no limit).
   Route truncated(double max_duration, double max_length) const;
 
+  // Routes driven one after the other with `pause` s between them, in which the robot is carried to the next
+  // one's start (from one storey to the next): no sensor data belongs to a pause. Distances add up over the parts.
+  static Route joined(const std::vector<Route>& parts, double pause);
+  // The pauses (start, end; s), and whether [t0, t1] overlaps one.
+  const std::vector<std::pair<double, double>>& pauses() const { return pauses_; }
+  bool overlaps_pause(double t0, double t1) const;
+
  private:
   std::tuple<const Sample&, const Sample&, double> bracket(double time) const;
   std::vector<Sample> samples_;
   std::vector<Eigen::Vector2d> waypoints_;
+  std::vector<std::pair<double, double>> pauses_;
 };
 
 // What a test route must do besides what the seed chooses.

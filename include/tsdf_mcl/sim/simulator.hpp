@@ -123,7 +123,7 @@ PointCloud simulate_scan(const RayCaster& scene, const LidarModel& lidar, const 
 // The seed places the furniture; the same seed gives the same mesh.
 TriangleMesh office_scene(std::uint64_t seed = 1);
 
-// The one feature of a symmetric building that tells its look-alike parts apart.
+// The one feature of a building that tells its look-alike parts apart (mirror-image wings, storeys of one plan).
 struct Landmark {
   std::string name;
   Eigen::AlignedBox3f box;                              // m, world frame
@@ -139,6 +139,9 @@ struct BuiltInScene {
   // sees from world_T_sensor, except where the landmark is in view.
   std::optional<Pose> mirror;
   std::optional<Landmark> landmark;
+  // Floor heights of the storeys, lowest first (m); empty: one storey. simulate plans a test route on one storey
+  // and a mapping route over each in turn.
+  std::vector<float> storey_floors;
 };
 
 // Two identical wings (x 0..14 and 26..40 m) either side of a lobby, 40 x 16 m, 3 m ceiling: the building
@@ -154,7 +157,13 @@ BuiltInScene symmetric_scene(std::uint64_t seed = 1);
 // area's pallets.
 TriangleMesh warehouse_scene(std::uint64_t seed = 1);
 
-// "office", "symmetric" or "warehouse" with its seed; throws Error for another name.
+// The office on two storeys of one plan, furnished alike: the lower one's ceiling slab is the upper one's floor
+// (z 3.2 m), and a staircase against the lab's south wall (x 28..33.6, y 0..1.1) rises through an opening in it,
+// ringed by a railing above. The staircase (steps seen from below, railing and hole from above) is the landmark:
+// nothing else tells the storeys apart. storey_floors = {0, 3.2}.
+BuiltInScene two_storey_scene(std::uint64_t seed = 1);
+
+// "office", "symmetric", "warehouse" or "two-storey" with its seed; throws Error for another name.
 BuiltInScene built_in_scene(const std::string& name, std::uint64_t seed);
 
 // What carries the sensor along the route (docs/simulator.md has the figures):
@@ -211,7 +220,7 @@ struct SimulatedScan {
 };
 
 struct SimulationOptions {
-  std::string scene = "office";  // "office", "symmetric", "warehouse" or a mesh file (STL/PLY/OBJ, metres, z up)
+  std::string scene = "office";  // a built-in scene (built_in_scene) or a mesh file (STL/PLY/OBJ, metres, z up)
   std::uint64_t scene_seed = 1;  // furniture of the built-in scenes
   // Adds a closed ground slab with its top at this height under the mesh's footprint, for meshes without a
   // floor of their own (Gazebo worlds get theirs from a ground plane); NaN: none.
@@ -224,6 +233,9 @@ struct SimulationOptions {
   // With neither, a test route ends after 60 m and a mapping route covers the whole floor.
   double duration_s = 0.0;
   double length_m = 0.0;
+  // Multi-storey scenes: the storey a test route runs on (0 the lowest). A mapping route covers every storey in
+  // turn, carried from one to the next between scans.
+  std::size_t storey = 0;
   Platform platform = Platform::ground;
   RobotModel robot;  // RobotModel::of(platform) gives the platform's defaults
   // Mounting tilt of the LiDAR about its own y axis (deg); positive turns its x axis towards the floor.
