@@ -149,7 +149,7 @@ constexpr float kStoreyRise = kCeiling + kSlab;  // the upper storey's floor
 constexpr int kSteps = 20;
 constexpr Rect kFlight{28.0f, 0.0f, 28.0f + 0.28f * kSteps, 1.1f};
 constexpr Rect kOpening{29.6f, 0.0f, kFlight.x1, 1.2f};  // in the slab; the flight's top step is the floor above
-constexpr float kParapet = 0.1f, kParapetHeight = 1.0f;  // the upper storey's railing round the opening
+constexpr float kParapet = 0.1f, kParapetHeight = 1.0f;  // the upper storey's railing along the opening
 
 void furnish(TriangleMesh& mesh, const Room& room, std::size_t index, std::uint64_t seed, bool stairwell) {
   const float half = kWall / 2;
@@ -253,7 +253,7 @@ BuiltInScene two_storey_scene(std::uint64_t seed) {
   add_slab_with_opening(scene.mesh);
   scene.storey_floors = {0.0f, kStoreyRise};
 
-  // The staircase and the railing round its opening: what a scan sees differently on the two storeys.
+  // The staircase and the railing along its opening: what a scan sees differently on the two storeys.
   Landmark landmark;
   landmark.name = "staircase";
   landmark.first_triangle = scene.mesh.triangles.size();

@@ -159,8 +159,8 @@ TriangleMesh warehouse_scene(std::uint64_t seed = 1);
 
 // The office on two storeys of one plan, furnished alike: the lower one's ceiling slab is the upper one's floor
 // (z 3.2 m), and a staircase against the lab's south wall (x 28..33.6, y 0..1.1) rises through an opening in it,
-// ringed by a railing above. The staircase (steps seen from below, railing and hole from above) is the landmark:
-// nothing else tells the storeys apart. storey_floors = {0, 3.2}.
+// railed on its north side and west end above. The staircase (steps seen from below, railing and hole from above) is
+// the landmark: nothing else tells the storeys apart. storey_floors = {0, 3.2}.
 BuiltInScene two_storey_scene(std::uint64_t seed = 1);
 
 // "office", "symmetric", "warehouse" or "two-storey" with its seed; throws Error for another name.
