@@ -188,10 +188,7 @@ TEST(SimSymmetric, TestRoutesStartAwayFromTheLandmarkAndPassIt) {
 // A run writes the symmetry and when the landmark comes into view; the first scans do not see it.
 TEST(SimSymmetric, RunRecordsTheSymmetryAndTheLandmarkSightings) {
   tsdf_mcl::test::TempDir dir;
-  tsdf_mcl::sim::SimulationOptions o;
-  o.scene = "symmetric";
-  o.lidar = "vlp16";
-  o.rate_hz = 5.0;
+  tsdf_mcl::sim::SimulationOptions o = tsdf_mcl::test::quick_vlp16_run("symmetric");
   o.length_m = 25.0;
   o.scan_spacing_m = 0.3;
   const auto summary = tsdf_mcl::sim::simulate(o, dir.path());

@@ -139,10 +139,7 @@ TEST(SimTwoStorey, MappingRunCoversBothStoreysAndScansNothingWhileCarried) {
 // A test route runs on the storey asked for, passes the staircase and sees it.
 TEST(SimTwoStorey, TestRouteRunsOnTheStoreyAskedFor) {
   tsdf_mcl::test::TempDir dir;
-  tsdf_mcl::sim::SimulationOptions o;
-  o.scene = "two-storey";
-  o.lidar = "vlp16";
-  o.rate_hz = 5.0;
+  tsdf_mcl::sim::SimulationOptions o = tsdf_mcl::test::quick_vlp16_run("two-storey");
   o.scan_spacing_m = 1.0;
   o.storey = 1;
   const auto summary = tsdf_mcl::sim::simulate(o, dir.path());

@@ -63,6 +63,15 @@ struct SceneOnGrid {
   sim::TraversabilityGrid grid;
 };
 
+// A quick test run in a built-in scene: the VLP-16 at 5 Hz (a sweep takes a fifth of a second of route).
+inline sim::SimulationOptions quick_vlp16_run(const std::string& scene) {
+  sim::SimulationOptions o;
+  o.scene = scene;
+  o.lidar = "vlp16";
+  o.rate_hz = 5.0;
+  return o;
+}
+
 // The office of scene seed 1 on its grid, built once for all tests.
 inline const SceneOnGrid& office_on_grid() {
   static const SceneOnGrid office(sim::office_scene(1));
