@@ -89,11 +89,19 @@ std::vector<std::uint32_t> read_chunk(hid_t group, const Chunk& chunk, const std
   bool sizes_agree =
       layout == H5D_CONTIGUOUS || (layout == H5D_COMPACT && stored == static_cast<hsize_t>(kChunkVoxels) * 4);
   if (layout == H5D_CHUNKED) {
+    // No HDF5 chunk of a 64^3 dataset needs to be larger than the dataset; libhdf5 allocates and fills a whole one
+    // before reading (a fuzzed file declared 7995456 x 1 x 64 words: 2 GB, and minutes of memset).
     hsize_t chunk_dims[H5S_MAX_RANK] = {};
     const int chunk_rank = H5Pget_chunk(plist.get(), H5S_MAX_RANK, chunk_dims);
+    constexpr hsize_t kDatasetBytes = static_cast<hsize_t>(kChunkVoxels) * 4;
     hsize_t chunk_bytes = 4;
-    for (int a = 0; a < chunk_rank; ++a) chunk_bytes *= chunk_dims[a];
-    sizes_agree = chunk_rank > 0 && (H5Pget_nfilters(plist.get()) != 0 || stored % chunk_bytes == 0);
+    bool bounded = chunk_rank > 0;
+    for (int a = 0; a < chunk_rank && bounded; ++a) {
+      bounded = chunk_dims[a] > 0 && chunk_dims[a] <= static_cast<hsize_t>(kChunkVoxels);
+      chunk_bytes *= bounded ? chunk_dims[a] : 1;  // at most 2^20 * 2^18: no overflow
+      bounded = bounded && chunk_bytes <= kDatasetBytes;
+    }
+    sizes_agree = bounded && (H5Pget_nfilters(plist.get()) != 0 || stored % chunk_bytes == 0);
   }
   if (!sizes_agree) throw Error(what + ": the stored data does not match its 64^3 shape (corrupt)");
   std::vector<std::uint32_t> words(kChunkVoxels);

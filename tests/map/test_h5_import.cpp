@@ -127,6 +127,8 @@ TEST(H5Import, BadFilesSayWhatIsWrong) {
   expect_import_error(dir / "shape.h5", "64^3");
   write_h5(dir / "type.h5", {{"0_0_0", {kN, kN, kN}, H5T_IEEE_F32LE, zeros}});
   expect_import_error(dir / "type.h5", "32-bit integers");
+  // A fuzzer's find: a compressed dataset whose HDF5 chunks are 2 GB (libhdf5 would allocate and fill one).
+  expect_import_error(std::string(tsdf_mcl::test::test_data_dir()) + "/libhdf5_huge_chunk.h5", "corrupt");
   write_h5(dir / "dup.h5", {chunk("1_0_0", zeros), chunk("01_0_0", zeros)});
   expect_import_error(dir / "dup.h5", "two datasets");
   EXPECT_THROW(tsdf_mcl::import_reference_h5(dir / "dup.h5", 0.01f), Error);
