@@ -132,6 +132,15 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
     add("particles", std::to_string(record->step.particles));
     add("inlier_ratio", std::to_string(record->step.estimate.inlier_ratio));
     add("map_coverage", std::to_string(record->step.estimate.coverage));
+    // Places the scans have not told from the track (look_alikes.hpp): while any is listed, `converged` waits.
+    std::string look_alikes;
+    char buf[96];
+    for (const Pose& p : record->step.look_alikes) {
+      std::snprintf(buf, sizeof(buf), "%s(%.2f, %.2f, %.2f)", look_alikes.empty() ? "" : "; ", p.translation().x(),
+                    p.translation().y(), p.translation().z());
+      look_alikes += buf;
+    }
+    add("look_alikes", look_alikes);
   }
   add("extrinsic", last_extrinsic_source_);  // tf, or ~sensor_extrinsics/<frame>
   add("backend", localizer_->evaluator().backend());

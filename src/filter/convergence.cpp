@@ -58,8 +58,8 @@ bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
   return false;
 }
 
-bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const Pose& motion, bool lost,
-                                bool searched) {
+bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const Pose& motion, bool lost, bool searched,
+                                bool look_alike) {
   // A NaN coverage (not computed) does not hold convergence back.
   const bool plausible = e.inlier_ratio >= options_.min_inlier_ratio && !(e.coverage < options_.min_coverage);
   const Pose predicted = last_ * motion;
@@ -72,7 +72,7 @@ bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const 
     travel_ = 0.0;
   }
   concentrated_before_ = concentrated;
-  if (!(concentrated && plausible && searched) || challenged(e)) {
+  if (!(concentrated && plausible && searched) || look_alike || challenged(e)) {
     streak_ = 0;
   } else {
     if (!(streak_ > 0 && same_place)) travel_ = 0.0;

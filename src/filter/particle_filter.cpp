@@ -64,6 +64,7 @@ void FilterParameters::validate() const {
     throw Error("challenger_interval must not be negative");
   convergence.validate();
   track.validate();
+  look_alikes.validate();
   if (!(ambiguous_weight >= 0.0 && ambiguous_weight <= 1.0)) throw Error("ambiguous_weight must lie in [0, 1]");
   global_init.validate();
   global_search.validate();
@@ -81,6 +82,12 @@ ParticleFilter::ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, c
       recovery_(params.recovery_alpha_slow, params.recovery_alpha_fast, params.recovery_margin),
       convergence_(params.convergence),
       keeper_(params.track),
+      look_alikes_(
+          map, params.look_alikes,
+          [this](const Pose& a, const Pose& b, const std::vector<Eigen::Vector3f>& points) {
+            return judge_places(a, b, points);
+          },
+          params.convergence.max_jump_m, params.convergence.max_jump_rad),
       subset_first_(params.subset_first),
       motion_(params.motion.type) {
   params_.validate();
@@ -132,6 +139,7 @@ void ParticleFilter::start(std::size_t count) {
   recovery_.reset();
   convergence_.reset();
   keeper_.reset();
+  look_alikes_.reset();
   restore_pending_ = false;
   trusted_ = false;
   ever_converged_ = false;
@@ -239,11 +247,12 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
                             double implausible_share, FilterStep& step) {
   challengers_weighed_ = challengers_weighed_ || last_challenge_time_ > -1e300;
   keep_track(delta, dt, points, step);
+  remember_look_alikes(delta, points, step);
   // Recovery moving more of the belief elsewhere than converged_weight allows outside the dominant mode: lost.
-  estimate_.converged = convergence_.update(estimate_, step.concentrated && !step.holding, delta,
-                                            step.random_share > 1.0 - params_.estimate.converged_weight,
-                                            challengers_weighed_ || params_.challenger_candidates == 0);
-  step.challenged = convergence_.challenged(estimate_);
+  estimate_.converged = convergence_.update(
+      estimate_, step.concentrated && !step.holding, delta, step.random_share > 1.0 - params_.estimate.converged_weight,
+      challengers_weighed_ || params_.challenger_candidates == 0, !step.look_alikes.empty());
+  step.challenged = convergence_.challenged(estimate_) || !step.look_alikes.empty();
   // Trust is earned where the map covers the scan (converged at converged_min_coverage) and lost only where it
   // covers most of it: in a room the mapping run never entered the particles spread and `converged` lapses, which
   // on a scan at the edge of the coverage threshold must not turn the track into an off-map belief.
@@ -259,6 +268,7 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
   if (implausible_share > 0.0) {
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
     keeper_.reset();
+    look_alikes_.reset();
     ever_converged_ = false;
     local_start_ = false;
     recovery_.reset();

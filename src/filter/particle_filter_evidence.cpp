@@ -523,6 +523,83 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
   if (d == TrackKeeper::Decision::kRestore) restore_pending_ = true;
 }
 
+LookAlikeMemory::Verdict ParticleFilter::judge_places(const Pose& a, const Pose& b,
+                                                      const std::vector<Eigen::Vector3f>& points) const {
+  EndpointModel plain = params_.sensor;
+  plain.weight_exponent = 1.0f;
+  // The frontier's points are no evidence between places (drop_frontier_points), whatever the phase of the search.
+  const float reach = params_.frontier_evidence ? 0.0f : map_.truncation();
+  // The memory judges many places against one track on one scan: the track's side once.
+  if (!(judged_.step == step_ && judged_.points == points.data() && judged_.pose.matrix() == a.matrix())) {
+    judged_.evidence = point_evidence(map_, plain, a, points, params_.inlier_distance, reach);
+    judged_.step = step_;
+    judged_.points = points.data();
+    judged_.pose = a;
+  }
+  const PointEvidence place = point_evidence(map_, plain, b, points, params_.inlier_distance, reach);
+  const PairedEvidence e = paired_evidence(judged_.evidence, place, evidence_dead_band());
+  LookAlikeMemory::Verdict v;
+  v.evidence =
+      params_.hypothesis_evidence_points * e.sum / static_cast<double>(std::max<std::size_t>(points.size(), 1));
+  v.track_explained = judged_.evidence.fit.absolute_inlier_ratio();
+  v.place_explained = place.fit.absolute_inlier_ratio();
+  return v;
+}
+
+void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<Eigen::Vector3f>& points,
+                                          FilterStep& step) {
+  const std::vector<Hypothesis>& h = estimate_.hypotheses;
+  // A local start's pose is what tells its place from look-alikes: the operator's, not the scans'.
+  if (!look_alikes_.enabled() || h.empty() || local_start_) return;
+  // The other hypotheses that explain about as much of the scan as the track (LookAlikeOptions::explain_margin): the
+  // others are no look-alikes, and judging them costs a ray march each.
+  const auto explained = [](const Hypothesis& x) {
+    return std::isnan(x.coverage) ? x.inlier_ratio : x.inlier_ratio * x.coverage;
+  };
+  std::vector<Pose> others;
+  for (std::size_t k = 1; k < h.size(); ++k) {
+    if (explained(h[k]) >= explained(h.front()) - params_.look_alikes.explain_margin) others.push_back(h[k].pose);
+  }
+  // And the places this scan fits best whatever their share: a challenger the background search just placed holds
+  // too little of the belief to be among the heaviest modes, and resampling may drop it before it is one. The best
+  // particle of each of up to kFittestPlaces places outside the hypotheses (among the best 512 there).
+  const ParticleArrays p = evaluator_.particles();
+  std::vector<Pose> taken;
+  for (const Hypothesis& x : h) taken.push_back(x.pose);
+  const auto taken_near = [&](const Eigen::Vector3d& at) {
+    return std::any_of(taken.begin(), taken.end(),
+                       [&](const Pose& t) { return (t.translation() - at).norm() <= kTrackRadius; });
+  };
+  std::vector<std::uint32_t> elsewhere;
+  for (std::size_t i = 0; i < count_; ++i) {
+    if (!taken_near(p.position(i).cast<double>())) elsewhere.push_back(static_cast<std::uint32_t>(i));
+  }
+  const auto better = [&](std::uint32_t a, std::uint32_t b) {
+    return p.log_weight[a] > p.log_weight[b] || (p.log_weight[a] == p.log_weight[b] && a < b);
+  };
+  const std::size_t best = std::min<std::size_t>(elsewhere.size(), 512);
+  std::partial_sort(elsewhere.begin(), elsewhere.begin() + static_cast<std::ptrdiff_t>(best), elsewhere.end(), better);
+  std::vector<Pose> fittest;
+  for (std::size_t k = 0; k < best && fittest.size() < kFittestPlaces; ++k) {
+    Pose pose = Pose::Identity();
+    pose.linear() = p.rotation(elsewhere[k]).cast<double>().normalized().toRotationMatrix();
+    pose.translation() = p.position(elsewhere[k]).cast<double>();
+    if (taken_near(pose.translation())) continue;
+    taken.push_back(pose);
+    fittest.push_back(pose);
+  }
+  std::vector<WallTilt> walls;
+  for (const Pose& pose : fittest) walls.push_back(walls_at(pose));
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(fittest.size()); ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    fittest[i] = refine_pose(map_, fittest[i], points, 6, &walls[i]);
+  }
+  others.insert(others.end(), fittest.begin(), fittest.end());
+  look_alikes_.update(h.front().pose, delta, others, points);
+  step.look_alikes = look_alikes_.places();
+}
+
 TrackState ParticleFilter::classify(const FilterStep& step) const {
   if (step.implausible || step.random_share > 1.0 - params_.estimate.converged_weight) return TrackState::kLost;
   if (estimate_.converged) return TrackState::kConverged;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tsdf_mcl/sensor/endpoint_kernel.hpp"
+#include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl {
 
@@ -173,6 +174,16 @@ PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vect
     e.sum += std::copysign(std::max(std::abs(d) - dead_band, 0.0), d);
     ++e.shared;
   }
+  return e;
+}
+
+PointEvidence point_evidence(const TsdfMap& map, const EndpointModel& model, const Pose& pose,
+                             const std::vector<Eigen::Vector3f>& points, float inlier_distance, float frontier_reach) {
+  PointEvidence e;
+  const Eigen::Quaternionf q(Eigen::Quaterniond(pose.linear()).cast<float>());
+  point_log_likelihoods(map, model, pose.translation().cast<float>(), q, points, e.log);
+  e.fit = ray_fit(map, pose, points, inlier_distance, 0.4f, &e.observed);
+  if (frontier_reach > 0.0f) drop_frontier_points(map, pose, points, frontier_reach, e.observed);
   return e;
 }
 

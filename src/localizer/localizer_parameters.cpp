@@ -216,6 +216,7 @@ void set_estimate(FilterParameters& f, const Values& v) {
   f.convergence.min_updates = v.count("converged_min_updates");
   f.convergence.travel_after_jump_m = v.number("converged_travel_after_jump");
   f.convergence.competitor_min_weight = v.number("converged_competitor_weight");
+  f.look_alikes.refute_nats = v.number("converged_look_alike_nats");
   f.inlier_distance = static_cast<float>(v.number("inlier_distance"));
   f.recovery_min_inliers = v.number("recovery_min_inliers");
   f.hypothesis_evidence_points = v.number("hypothesis_evidence_points");

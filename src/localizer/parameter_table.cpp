@@ -247,6 +247,10 @@ std::vector<ParameterSpec> convergence_specs(const FilterParameters& f) {
        kAdvanced},
       {"converged_min_updates", "N", std::to_string(f.convergence.min_updates),
        "converged: all of the above for this many consecutive filter updates at one place", kAdvanced},
+      {"converged_look_alike_nats", "NATS", num(f.look_alikes.refute_nats),
+       "converged: no place elsewhere may be left that this much paired evidence summed over the scans since it was "
+       "found has not refuted, whatever its share of the belief; 0 = off",
+       kAdvanced},
       {"converged_travel_after_jump", "M", num(f.convergence.travel_after_jump_m),
        "converged: after the estimate jumped away from a place it had converged at or concentrated on, or after "
        "a wrong lock was found out, the new place must hold over this much travel first",

@@ -19,6 +19,7 @@
 #include "tsdf_mcl/sensor/endpoint_model.hpp"
 #include "tsdf_mcl/filter/global_proposal.hpp"
 #include "tsdf_mcl/filter/kld_sampling.hpp"
+#include "tsdf_mcl/filter/look_alikes.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
 #include "tsdf_mcl/filter/motion_prediction.hpp"
 #include "tsdf_mcl/filter/particle_init.hpp"
@@ -159,6 +160,9 @@ struct FilterParameters {
   // A jump needs proof (track_keeper.hpp): once converged, the track is only left for a challenger that explains
   // the scans better over track.proof_travel_m of travel, judged on the points observed under both poses.
   TrackKeeperOptions track;
+  // Look-alikes (look_alikes.hpp): a place that explains the scan and every view the track kept as well as the track
+  // holds `converged` back, whatever its share of the belief.
+  LookAlikeOptions look_alikes;
   // TrackState::kAmbiguous also when the second hypothesis holds at least this share of the belief.
   double ambiguous_weight = 0.1;
   // While no place dominates, the estimate stays on the odometry continuation of the place it reported until
@@ -202,12 +206,13 @@ struct FilterStep {
   double fit = 0.0;                // mean per-point geometric-mean likelihood over particles (diagnostic)
   double w_slow = 0.0;
   double w_fast = 0.0;
-  double random_share = 0.0;    // share of the next generation from the proposal (recovery)
-  bool concentrated = false;    // the dominant hypothesis holds converged_weight and is compact
-  bool implausible = false;     // ... and its inlier ratio is below recovery_min_inliers
-  bool challenged = false;      // another hypothesis explains the scan nearly as well (convergence.hpp)
-  std::size_t challengers = 0;  // particles of the background search added in this update
-  std::size_t restored = 0;     // particles put back on the track after a disproven challenger
+  double random_share = 0.0;      // share of the next generation from the proposal (recovery)
+  bool concentrated = false;      // the dominant hypothesis holds converged_weight and is compact
+  bool implausible = false;       // ... and its inlier ratio is below recovery_min_inliers
+  bool challenged = false;        // another hypothesis explains the scan nearly as well (convergence.hpp)
+  std::vector<Pose> look_alikes;  // places the track's views do not tell from it (look_alikes.hpp)
+  std::size_t challengers = 0;    // particles of the background search added in this update
+  std::size_t restored = 0;       // particles put back on the track after a disproven challenger
   // The published estimate stays on the track against a dominant hypothesis elsewhere that is not proven yet
   // (track_keeper.hpp); the challenge's paired evidence (nats) and travel (m) so far.
   bool holding = false;
@@ -314,6 +319,19 @@ class ParticleFilter {
   // The track keeper's turn (track_keeper.hpp) after the convergence test: may move the estimate back onto the
   // track and schedule particles for it.
   void keep_track(const Pose& delta, double dt, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // The look-alike memory's turn (look_alikes.hpp) on the dominant hypothesis and the others: step.look_alikes.
+  void remember_look_alikes(const Pose& delta, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // The look-alike memory's judge: paired evidence of pose `a` over `b` on `points` (nats, in the units the hypotheses'
+  // shares move by) and the share of the scan each explains.
+  LookAlikeMemory::Verdict judge_places(const Pose& a, const Pose& b, const std::vector<Eigen::Vector3f>& points) const;
+  // judge_places' track side, kept for the update's other places.
+  struct JudgedTrack {
+    std::uint64_t step = ~std::uint64_t{0};
+    const Eigen::Vector3f* points = nullptr;
+    Pose pose = Pose::Identity();
+    PointEvidence evidence;
+  };
+  mutable JudgedTrack judged_;
   TrackState classify(const FilterStep& step) const;
   double evidence_dead_band() const;  // what a point inlier_distance off a surface loses (nats)
   // How far from unobserved space a point must land to be evidence between places (0: any observed point is).
@@ -373,6 +391,7 @@ class ParticleFilter {
   RecoveryMonitor recovery_;
   ConvergenceMonitor convergence_;
   TrackKeeper keeper_;
+  LookAlikeMemory look_alikes_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
   bool trusted_ = false;          // converged with enough map coverage, not lapsed where the map covers the scan
   bool track_followed_ = false;   // this update: the dominant hypothesis continues the kept track (keep_track)
@@ -401,7 +420,9 @@ class ParticleFilter {
   // band kept their whole-scan weights, which count its unobserved points as misses, joined its mode and spread it
   // past the compact test; the place was then weighed on the whole scan and sank (ChangedMap.*KeepsItsHeight).
   static constexpr double kTrackRadius = 2.0;
-  static constexpr std::size_t kMaxEvidencePlaces = 4;    // places weighed on their own points, at most
+  static constexpr std::size_t kMaxEvidencePlaces = 4;  // places weighed on their own points, at most
+  // Places outside the hypotheses, the scan's best-fitting particles, that the look-alike memory weighs each update.
+  static constexpr std::size_t kFittestPlaces = 4;
   static constexpr std::size_t kMappedTrackUpdates = 10;  // updates in a row at a covered place: mapped_track_
   std::size_t covered_streak_ = 0;        // updates in a row whose top hypothesis the map covered (most of the scan)
   bool mapped_track_ = false;             // covered_streak_ reached kMappedTrackUpdates since the (re)start

@@ -8,6 +8,7 @@
 
 #include "tsdf_mcl/core/pose.hpp"
 #include "tsdf_mcl/map/tsdf_map.hpp"
+#include "tsdf_mcl/sensor/endpoint_model.hpp"
 
 namespace tsdf_mcl {
 
@@ -67,6 +68,19 @@ struct PairedEvidence {
 PairedEvidence paired_evidence(const std::vector<double>& log_a, const std::vector<std::uint8_t>& observed_a,
                                const std::vector<double>& log_b, const std::vector<std::uint8_t>& observed_b,
                                double dead_band);
+// What a scan says at one pose, for paired_evidence: each point's log-likelihood under `model` (weight_exponent as
+// given), its map evidence from ray_fit with the frontier's points within `frontier_reach` dropped
+// (drop_frontier_points; 0: none), and the fit.
+struct PointEvidence {
+  std::vector<double> log;
+  std::vector<std::uint8_t> observed;
+  RayFit fit;
+};
+PointEvidence point_evidence(const TsdfMap& map, const EndpointModel& model, const Pose& pose,
+                             const std::vector<Eigen::Vector3f>& points, float inlier_distance, float frontier_reach);
+inline PairedEvidence paired_evidence(const PointEvidence& a, const PointEvidence& b, double dead_band) {
+  return paired_evidence(a.log, a.observed, b.log, b.observed, dead_band);
+}
 
 // Clears observed[j] for the points at the frontier of the map's observed space at `pose`: an endpoint within
 // `reach` (m, along any axis) of space the map never observed. What a map holds there it saw once, from afar or at

@@ -1,0 +1,135 @@
+#include "tsdf_mcl/filter/look_alikes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/filter/scan_fit.hpp"
+
+namespace tsdf_mcl {
+
+void LookAlikeOptions::validate() const {
+  if (!(refute_nats >= 0.0) || !std::isfinite(refute_nats))
+    throw Error("converged_look_alike_nats must not be negative");
+  if (!(explain_margin >= 0.0 && explain_margin <= 1.0)) throw Error("look-alikes: explain_margin must lie in [0, 1]");
+  if (max_places == 0) throw Error("look-alikes: max_places must be at least 1");
+  if (max_refuted == 0) throw Error("look-alikes: max_refuted must be at least 1");
+}
+
+LookAlikeMemory::LookAlikeMemory(const TsdfMap& map, const LookAlikeOptions& options, Judge judge, double max_jump_m,
+                                 double max_jump_rad)
+    : map_(map), options_(options), judge_(std::move(judge)), max_jump_m_(max_jump_m), max_jump_rad_(max_jump_rad) {
+  options_.validate();
+}
+
+void LookAlikeMemory::reset() {
+  started_ = false;
+  track_ = Pose::Identity();
+  look_alikes_.clear();
+  refuted_.clear();
+}
+
+std::vector<Pose> LookAlikeMemory::places() const {
+  std::vector<Pose> out;
+  for (const LookAlike& l : look_alikes_) out.push_back(l.relative * track_);
+  return out;
+}
+
+bool LookAlikeMemory::near(const Pose& a, const Pose& b) const {
+  return (a.translation() - b.translation()).norm() <= max_jump_m_ &&
+         rotation_angle_between(a.linear(), b.linear()) <= max_jump_rad_;
+}
+
+void LookAlikeMemory::refute(const Pose& relative) {
+  refuted_.push_back(relative);
+  if (refuted_.size() > options_.max_refuted) refuted_.erase(refuted_.begin());
+}
+
+std::size_t LookAlikeMemory::update(const Pose& top, const Pose& motion, const std::vector<Pose>& belief,
+                                    const std::vector<Eigen::Vector3f>& points) {
+  if (!enabled()) return 0;
+  std::vector<Pose> others = belief;
+  if (started_) {
+    const Pose predicted = track_ * motion;
+    if (!near(predicted, top)) {
+      // The track jumped to another place: the look-alikes and refuted places stay where the odometry carries them,
+      // each kept relative to the new track.
+      const Pose back = predicted * top.inverse();
+      for (LookAlike& l : look_alikes_) l.relative = l.relative * back;
+      for (Pose& r : refuted_) r = r * back;
+      // The place it left is judged like the belief's others (the belief may have dropped it already).
+      others.push_back(refine_pose(map_, predicted, points));
+    }
+  }
+  started_ = true;
+  track_ = top;
+
+  // The kept look-alikes refined from where the track carries them, then every place judged: the kept ones and the
+  // belief's others (independent: the map is read-only; the first judged alone, so that the judge's work on the track
+  // is done once).
+  const std::size_t kept_count = look_alikes_.size();
+  std::vector<Pose> places(kept_count);
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(kept_count); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    places[k] = refine_pose(map_, look_alikes_[k].relative * top, points);
+  }
+  places.insert(places.end(), others.begin(), others.end());
+  std::vector<Verdict> verdicts(places.size());
+  if (!places.empty()) verdicts[0] = judge_(top, places[0], points);
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t i = 1; i < static_cast<std::ptrdiff_t>(places.size()); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    verdicts[k] = judge_(top, places[k], points);
+  }
+  const auto plausible = [&](const Verdict& v) {
+    return v.place_explained >= v.track_explained - options_.explain_margin;
+  };
+
+  // Each kept look-alike at its refined place or at the belief's hypothesis there if that fits better (a hypothesis of
+  // a spread belief may sit off its place), its evidence summed.
+  std::vector<LookAlike> kept;
+  for (std::size_t k = 0; k < kept_count; ++k) {
+    LookAlike l = look_alikes_[k];
+    Pose place = places[k];
+    Verdict verdict = verdicts[k];
+    for (std::size_t j = kept_count; j < places.size(); ++j) {
+      if (near(places[j], place) && verdicts[j].evidence < verdict.evidence) {
+        place = places[j];
+        verdict = verdicts[j];
+      }
+    }
+    if (near(place, top)) continue;  // it became the track
+    const auto same = [&](const LookAlike& x) { return near(x.relative * top, place); };
+    if (std::any_of(kept.begin(), kept.end(), same)) continue;
+    l.relative = place * top.inverse();
+    l.evidence += verdict.evidence;
+    if (l.evidence >= options_.refute_nats || !plausible(verdict)) {
+      refute(l.relative);
+      continue;
+    }
+    kept.push_back(l);
+  }
+  look_alikes_ = std::move(kept);
+
+  // New look-alikes among the belief's other places: any this scan does not refute by itself. A place the scans
+  // refuted before stays refuted when the search finds it again (the mirror wing after the cabinet: found again, it
+  // starts with a tiny share, which no measure taken since tells from a fresh twin's), unless this scan alone favours
+  // it as much.
+  for (std::size_t j = kept_count; j < places.size(); ++j) {
+    if (look_alikes_.size() >= options_.max_places) break;
+    const Pose& o = places[j];
+    if (near(o, top)) continue;
+    const auto known = [&](const Pose& relative) { return near(relative * top, o); };
+    if (std::any_of(look_alikes_.begin(), look_alikes_.end(), [&](const LookAlike& l) { return known(l.relative); }))
+      continue;
+    const Verdict& now = verdicts[j];
+    if (now.evidence >= options_.refute_nats || !plausible(now)) continue;
+    if (std::any_of(refuted_.begin(), refuted_.end(), known) && now.evidence > -options_.refute_nats) continue;
+    look_alikes_.push_back(LookAlike{o * top.inverse(), now.evidence});
+  }
+  return look_alikes_.size();
+}
+
+}  // namespace tsdf_mcl
