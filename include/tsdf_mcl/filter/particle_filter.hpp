@@ -229,6 +229,9 @@ class ParticleFilter {
   // map and the evaluator must outlive the filter.
   ParticleFilter(const TsdfMap& map, SensorEvaluator& evaluator, const FilterParameters& params,
                  std::size_t points_hint = 512);
+  // Not copied: its look-alike memory judges places through this filter (a copy would judge through the original).
+  ParticleFilter(const ParticleFilter&) = delete;
+  ParticleFilter& operator=(const ParticleFilter&) = delete;
 
   // Uniform over the map's free space (within the tilt and height priors of global_init), no scan needed.
   void initialize_global();
