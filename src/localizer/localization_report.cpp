@@ -88,7 +88,7 @@ nlohmann::json scan_json(const ScanRecord& r) {
       j["challenge_travel_m"] = step.challenge_travel;
     }
     j["restored"] = step.restored;
-    // Places the track's views do not tell from it (look_alikes.hpp): while any is kept, `converged` waits.
+    // Places the scans have not told from the track (look_alikes.hpp): while any is kept, `converged` waits.
     nlohmann::json look_alikes = nlohmann::json::array();
     for (const Pose& p : step.look_alikes) look_alikes.push_back(pose_json(p));
     j["look_alikes"] = std::move(look_alikes);

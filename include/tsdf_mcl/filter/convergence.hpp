@@ -7,8 +7,8 @@
 //   - plausible: the scan fits the map there as a correct track's does, measured absolutely (inlier ratio),
 //     not against a running average that may have started at a wrong lock;
 //   - unchallenged: no other hypothesis with a credible share (competitor_min_weight) explains the scan
-//     nearly as well, however far the dominant one leads above that share; nor does a look-alike whatever its share
-//     (look_alikes.hpp: a place that explains this scan and every view the track kept as well as the track);
+//     nearly as well, however far the dominant one leads above that share; nor is a look-alike kept, whatever its
+//     share (look_alikes.hpp: a place elsewhere that the scans since it was found have not refuted);
 //   - persistent: all of it held for min_updates consecutive filter updates at one place (the dominant
 //     hypothesis moved as the odometry says), so one lucky scan does not decide; counted only once the
 //     background search (challengers, particle_filter.hpp) has had its say, so that a lone wrong lock is
@@ -61,7 +61,7 @@ class ConvergenceMonitor {
   // One filter update: `concentrated` = PoseEstimator's test on the dominant hypothesis; `motion` = the
   // odometry since the last update (identity without odometry); `lost` = recovery considers the track lost.
   // `searched`: challengers have been weighed since the belief concentrated (always true without a background
-  // search). `look_alike`: a place the track's views do not tell from it is kept (look_alikes.hpp).
+  // search). `look_alike`: a place the scans have not told from the track is kept (look_alikes.hpp).
   bool update(const PoseEstimate& estimate, bool concentrated, const Pose& motion, bool lost, bool searched,
               bool look_alike = false);
   void reset();

@@ -160,8 +160,8 @@ struct FilterParameters {
   // A jump needs proof (track_keeper.hpp): once converged, the track is only left for a challenger that explains
   // the scans better over track.proof_travel_m of travel, judged on the points observed under both poses.
   TrackKeeperOptions track;
-  // Look-alikes (look_alikes.hpp): a place that explains the scan and every view the track kept as well as the track
-  // holds `converged` back, whatever its share of the belief.
+  // Look-alikes (look_alikes.hpp): a place elsewhere that the scans since it was found have not refuted holds
+  // `converged` back, whatever its share of the belief.
   LookAlikeOptions look_alikes;
   // TrackState::kAmbiguous also when the second hypothesis holds at least this share of the belief.
   double ambiguous_weight = 0.1;
@@ -210,7 +210,7 @@ struct FilterStep {
   bool concentrated = false;      // the dominant hypothesis holds converged_weight and is compact
   bool implausible = false;       // ... and its inlier ratio is below recovery_min_inliers
   bool challenged = false;        // another hypothesis explains the scan nearly as well (convergence.hpp)
-  std::vector<Pose> look_alikes;  // places the track's views do not tell from it (look_alikes.hpp)
+  std::vector<Pose> look_alikes;  // places the scans have not told from the track (look_alikes.hpp)
   std::size_t challengers = 0;    // particles of the background search added in this update
   std::size_t restored = 0;       // particles put back on the track after a disproven challenger
   // The published estimate stays on the track against a dominant hypothesis elsewhere that is not proven yet
