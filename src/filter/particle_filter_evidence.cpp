@@ -570,7 +570,8 @@ void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<E
     return std::any_of(taken.begin(), taken.end(),
                        [&](const Pose& t) { return (t.translation() - at).norm() <= kTrackRadius; });
   };
-  std::vector<std::uint32_t> elsewhere;
+  std::vector<std::uint32_t>& elsewhere = elsewhere_;  // reused: up to the whole particle set, every update
+  elsewhere.clear();
   for (std::size_t i = 0; i < count_; ++i) {
     if (!taken_near(p.position(i).cast<double>())) elsewhere.push_back(static_cast<std::uint32_t>(i));
   }

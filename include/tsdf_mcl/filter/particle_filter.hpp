@@ -456,6 +456,7 @@ class ParticleFilter {
   std::vector<double> evidence_log_weight_;  // each place's particles on its evidence points (then posteriors)
   std::vector<std::int32_t> place_of_;       // each particle's place (evidence_centres' index), -1: none
   std::vector<std::uint32_t> members_;       // one place's particles, gathered into the spare set
+  std::vector<std::uint32_t> elsewhere_;     // particles outside the hypotheses (remember_look_alikes)
   std::size_t places_reweighed_ = 0;         // places [0, this) may hold particles weighed on their own points
   bool track_reweighed_ = false;             // this update weighed some place on its evidence points
   bool dominant_concentrated_ = false;       // the last update's dominant hypothesis held the belief, concentrated
