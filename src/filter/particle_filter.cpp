@@ -141,6 +141,7 @@ void ParticleFilter::start(std::size_t count) {
   keeper_.reset();
   look_alikes_.reset();
   restore_pending_ = false;
+  proven_look_alike_.reset();
   trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
@@ -269,6 +270,7 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
     keeper_.reset();
     look_alikes_.reset();
+    proven_look_alike_.reset();
     ever_converged_ = false;
     local_start_ = false;
     recovery_.reset();
@@ -310,6 +312,9 @@ void ParticleFilter::resample_policy(double time, std::size_t n, const std::vect
       resampled = true;
       if (step.random_share > 0.0) {
         step.injected = injected;
+      } else if (injection.look_alike) {
+        step.look_alike_restored = injected;
+        proven_look_alike_.reset();
       } else if (injection.around) {
         step.restored = injected;
         restore_pending_ = false;

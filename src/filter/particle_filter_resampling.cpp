@@ -34,6 +34,14 @@ ParticleFilter::Injection ParticleFilter::plan_injection(double time, const Filt
     in.candidates = in.count;
     in.share = 0.5;
     in.around = keeper_.pose();
+  } else if (proven_look_alike_) {
+    // A look-alike the scans proved better, of which the belief holds too little: as many particles, with the share
+    // its evidence gives it (LookAlikeMemory::proven).
+    in.count = std::min(max, std::max<std::size_t>(params_.hypothesis_min_particles, params_.kld.min_particles));
+    in.candidates = in.count;
+    in.share = proven_look_alike_->share;
+    in.around = proven_look_alike_->place;
+    in.look_alike = true;
   } else if (params_.challenger_candidates > 0 && ever_concentrated_ &&
              time - last_challenge_time_ >= params_.challenger_interval) {
     in.candidates = params_.challenger_candidates;
@@ -66,13 +74,17 @@ ParticleFilter::GroupCounts ParticleFilter::count_groups(std::size_t n, std::siz
   // Every credible hypothesis (one that could compete, convergence.hpp) gets as many particles as the largest:
   // with fewer, its mean sits a little off, its fit at its refined pose comes out a little worse, and the
   // evidence drifts towards whichever look-alike happened to hold more particles.
+  // (Only the kept ones: with hypothesis_min_weight above competitor_min_weight a credible hypothesis may have joined
+  // the rest, its group left without particles.)
+  const auto credible = [&](std::size_t g) {
+    return kept_group[g] && group_share_[g] >= params_.convergence.competitor_min_weight;
+  };
   std::size_t credible_count = 0;
   for (std::size_t g = 0; g < rest; ++g) {
-    if (group_share_[g] >= params_.convergence.competitor_min_weight)
-      credible_count = std::max(credible_count, counts[g]);
+    if (credible(g)) credible_count = std::max(credible_count, counts[g]);
   }
   for (std::size_t g = 0; g < rest; ++g) {
-    if (group_share_[g] >= params_.convergence.competitor_min_weight) counts[g] = credible_count;
+    if (credible(g)) counts[g] = credible_count;
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (!kept_group[static_cast<std::size_t>(group_[i])]) group_[i] = static_cast<std::int32_t>(rest);

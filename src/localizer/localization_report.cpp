@@ -88,6 +88,7 @@ nlohmann::json scan_json(const ScanRecord& r) {
       j["challenge_travel_m"] = step.challenge_travel;
     }
     j["restored"] = step.restored;
+    j["look_alike_restored"] = step.look_alike_restored;  // particles put at a look-alike the scans proved better
     // Places the scans have not told from the track (look_alikes.hpp): while any is kept, `converged` waits.
     nlohmann::json look_alikes = nlohmann::json::array();
     for (const Pose& p : step.look_alikes) look_alikes.push_back(pose_json(p));

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <vector>
 
 #include "filter_test_runs.hpp"
@@ -157,6 +158,76 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
     }
   }
   EXPECT_TRUE(both_held) << "the belief never held both wings while they looked alike";
+}
+
+// A belief that dropped the true wing gets it back once the cabinet's scans prove it (look_alikes.hpp: particles put
+// at the proven look-alike), turning the estimate within a metre of the cabinet's first sight, and never claims the
+// wrong wing. A small first search (4,000 candidates, 2,000 kept) holds one wing only in most seeds.
+TEST(GlobalSearch, ADroppedWingComesBackWhenTheCabinetProvesIt) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
+  const TsdfMap map =
+      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
+  const std::vector<Pose> truth = twin_wing_route();
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
+  const Scans scans = scan_route(boxes, truth, 5);
+  const double cabinet_x = 9.7;  // the cabinet comes into view
+  std::size_t turned = 0;        // seeds whose estimate the proof turned
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    auto eval = cpu_evaluator(map);
+    FilterParameters p = test::small_building_parameters();
+    p.seed = seed;
+    p.initial_particles = 2000;
+    p.global_search.candidates = 4000;
+    ParticleFilter filter(map, *eval, p, 256);
+    ScanExtras extras;
+    extras.dense = &scans.dense[0];
+    filter.initialize_global(scans.points[0], extras);
+    std::optional<std::size_t> proof;  // the first step after the cabinet's first sight that put particles back
+    std::size_t right_from = 0;        // the estimate is right from this step on
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      extras.dense = &scans.dense[i];
+      const FilterStep step = filter.update(kScanPeriod * static_cast<double>(i), scans.points[i], odometry[i], extras);
+      debug_step(i, step, truth[i]);
+      const double error = test::translation_error(step.estimate.pose, truth[i]);
+      if (step.estimate.converged) {
+        EXPECT_LT(error, 0.3) << "seed " << seed << ": converged on the wrong wing at step " << i;
+      }
+      if (error > 0.3) right_from = i + 1;
+      if (step.look_alike_restored > 0 && truth[i].translation().x() >= cabinet_x && !proof) proof = i;
+    }
+    EXPECT_LT(test::translation_error(filter.estimate().pose, truth.back()), 0.2) << "seed " << seed;
+    if (proof && right_from > *proof && right_from <= *proof + 3) ++turned;
+  }
+  // Measured: seeds 1, 2 and 4 followed the mirror wing until the proof at the cabinet's first sight and were right
+  // from the next step (without the particles put back: 3-5 steps later); seed 3's right wing was put back in room A,
+  // where its track had been a mode 0.8 m off.
+  EXPECT_GE(turned, 3u);
+}
+
+// hypothesis_min_weight above converged_competitor_weight: a hypothesis credible enough to compete but too light to
+// keep joins the rest, and resampling must not give its emptied group particles to draw (it threw "group 2 has no
+// particles to draw from" on the first update).
+TEST(GlobalSearch, HypothesesTooLightToKeepJoinTheRest) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
+  const TsdfMap map =
+      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
+  const std::vector<Pose> truth = twin_wing_route();
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
+  const Scans scans = scan_route(boxes, truth, 5);
+  auto eval = cpu_evaluator(map);
+  FilterParameters p = test::small_building_parameters();
+  p.hypothesis_min_weight = 0.3;
+  ParticleFilter filter(map, *eval, p, 256);
+  ScanExtras extras;
+  extras.dense = &scans.dense[0];
+  filter.initialize_global(scans.points[0], extras);
+  for (std::size_t i = 0; i < 6; ++i) {
+    extras.dense = &scans.dense[i];
+    FilterStep step;
+    ASSERT_NO_THROW(step = filter.update(kScanPeriod * static_cast<double>(i), scans.points[i], odometry[i], extras))
+        << "step " << i;
+    EXPECT_EQ(step.next_particles, filter.particle_count());
+  }
 }
 
 // Forced onto a wrong place (5 m off in the asymmetric office), the filter must notice the poor fit, search

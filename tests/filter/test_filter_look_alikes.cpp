@@ -86,7 +86,7 @@ TEST(LookAlikes, KeptUntilTheScansRefuteIt) {
     std::vector<Pose> others;
     if (i == 0) others.push_back(half_turn(w.truth[0]));
     const Pose motion = i == 0 ? Pose::Identity() : w.truth[i - 1].inverse() * w.truth[i];
-    const std::size_t kept = m.update(w.truth[i], motion, others, w.points[i]);
+    const std::size_t kept = m.update(w.truth[i], motion, others, w.points[i], true);
     if (evidence < 1.0) {
       ASSERT_EQ(kept, 1u) << "scan " << i << ": the wings look alike so far";
       // Followed where the odometry carries it: the image of the track.
@@ -114,11 +114,11 @@ std::size_t offer_again(bool offered_at_start) {
     const Pose motion = i == 0 ? Pose::Identity() : w.truth[i - 1].inverse() * w.truth[i];
     std::vector<Pose> others;
     if (i == 0 && offered_at_start) others.push_back(half_turn(w.truth[0]));
-    m.update(w.truth[i], motion, others, w.points[i]);
+    m.update(w.truth[i], motion, others, w.points[i], true);
   }
   EXPECT_TRUE(m.places().empty());
   return m.update(w.truth[last], w.truth[last - 1].inverse() * w.truth[last], {half_turn(w.truth[last])},
-                  w.points[last]);
+                  w.points[last], true);
 }
 
 TEST(LookAlikes, RefutedStaysRefutedWhenFoundAgain) { EXPECT_EQ(offer_again(true), 0u); }
@@ -139,8 +139,139 @@ TEST(LookAlikes, FollowsTheTrackWhenItJumps) {
     const bool jumped = i >= 6;
     const Pose track = jumped ? half_turn(w.truth[i]) : w.truth[i];
     const Pose other = jumped ? w.truth[i] : half_turn(w.truth[i]);
-    ASSERT_EQ(m.update(track, motion, others, w.points[i]), 1u) << "scan " << i;
+    ASSERT_EQ(m.update(track, motion, others, w.points[i], true), 1u) << "scan " << i;
     EXPECT_LT(test::translation_error(m.places().front(), other), 0.2) << "scan " << i;
+  }
+}
+
+// The belief on the wrong wing, the truth offered once at the start: when the cabinet comes into view the scans
+// prove the truth better, with the share their evidence gives it, on each scan until the track follows; the track
+// moving there, the wing it left carries the proof against it and stays refuted. Without the map judging the track's
+// scan nothing is proven.
+struct ProofWalk {
+  std::size_t proofs = 0;            // scans on which the truth was proven better
+  std::size_t scans_from_first = 0;  // scans from the first proof on
+  double proven_at_x = 0.0;          // m: where the truth was at the first proof
+  double share = 0.0;                // its odds share
+  double place_error = 1e9;          // m, from the truth
+  std::size_t kept_after_move = 99;
+  std::size_t kept_when_offered_again = 99;
+};
+
+ProofWalk prove(bool track_mapped, bool follows) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
+  const TsdfMap map = twin_map(true);
+  const Walk w = walk(boxes);
+  LookAlikeMemory m = memory(map);
+  ProofWalk out;
+  bool moved = false;
+  for (std::size_t i = 0; i < w.truth.size(); ++i) {
+    const Pose motion = i == 0 ? Pose::Identity() : w.truth[i - 1].inverse() * w.truth[i];
+    std::vector<Pose> others;
+    if (i == 0) others.push_back(w.truth[0]);
+    // On the scan the track moves, the belief still holds a little of the wing it left.
+    if (moved && out.kept_after_move == 99) others.push_back(half_turn(w.truth[i]));
+    const Pose track = moved ? w.truth[i] : half_turn(w.truth[i]);
+    const std::size_t kept = m.update(track, motion, others, w.points[i], track_mapped);
+    if (moved && out.kept_after_move == 99) {
+      out.kept_after_move = kept;
+      // The image offered again: this scan alone does not favour it by the proof.
+      out.kept_when_offered_again = m.update(w.truth[i], Pose::Identity(), {half_turn(w.truth[i])}, w.points[i], true);
+    }
+    if (out.proofs > 0) ++out.scans_from_first;
+    if (!m.proven()) continue;
+    if (out.proofs++ == 0) {
+      ++out.scans_from_first;
+      out.proven_at_x = w.truth[i].translation().x();
+      out.share = m.proven()->odds_share();
+      out.place_error = test::translation_error(m.proven()->place, w.truth[i]);
+      moved = follows;  // the belief follows the proof from the next scan on
+    }
+  }
+  return out;
+}
+
+TEST(LookAlikes, ProvenBetterOnceTheScansTellThePlacesApart) {
+  const ProofWalk p = prove(true, true);
+  ASSERT_EQ(p.proofs, 1u);
+  EXPECT_GT(p.proven_at_x, 9.7) << "proven before the cabinet came into view";
+  EXPECT_GE(p.share, 1.0 / (1.0 + std::exp(-LookAlikeOptions{}.refute_nats)));
+  EXPECT_LT(p.place_error, 0.2);
+  EXPECT_EQ(p.kept_after_move, 0u) << "the wing the track left carries the proof against it";
+  EXPECT_EQ(p.kept_when_offered_again, 0u) << "found again, the left wing stays refuted";
+}
+
+// A belief that does not follow the proof is told again on the next scans, while the cabinet's evidence lies within
+// the window (the filter judges whether it still needs particles there).
+TEST(LookAlikes, ProvenAgainWhileTheBeliefStays) {
+  const ProofWalk p = prove(true, false);
+  EXPECT_GT(p.proofs, 1u);
+  EXPECT_LT(p.proofs, p.scans_from_first) << "the window moved past the cabinet";
+}
+
+TEST(LookAlikes, NothingProvenWhileTheMapCannotJudgeTheTrack) { EXPECT_EQ(prove(false, true).proofs, 0u); }
+
+// Proof needs a view, not a drift: a place favoured by a twentieth of a nat a scan sums past the bound over a long
+// walk, but never within proof_window_m of travel; a nat a scan proves it within the window.
+std::size_t first_proof(double evidence_per_scan) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(false);
+  const TsdfMap map = twin_map(false);
+  const Walk w = walk(boxes);
+  const LookAlikeMemory::Judge fixed = [&map, evidence_per_scan](const Pose& a, const Pose& b,
+                                                                 const std::vector<Eigen::Vector3f>& points) {
+    LookAlikeMemory::Verdict v = judge(map, a, b, points);
+    v.evidence = evidence_per_scan;
+    return v;
+  };
+  LookAlikeMemory m(map, LookAlikeOptions{}, fixed, 0.5, 0.35);
+  // The walk there and back again, for a long one (0.3 m a scan).
+  std::vector<std::size_t> order;
+  for (std::size_t lap = 0; lap < 4; ++lap) {
+    for (std::size_t i = 0; i < w.truth.size(); ++i) order.push_back(lap % 2 == 0 ? i : w.truth.size() - 1 - i);
+  }
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::size_t i = order[k];
+    const Pose motion = k == 0 ? Pose::Identity() : w.truth[order[k - 1]].inverse() * w.truth[i];
+    std::vector<Pose> others;
+    if (k == 0) others.push_back(half_turn(w.truth[i]));
+    EXPECT_EQ(m.update(w.truth[i], motion, others, w.points[i], true), 1u) << "scan " << k;
+    if (m.proven()) return k;
+  }
+  return order.size();
+}
+
+TEST(LookAlikes, ADriftIsNoProof) {
+  const std::size_t scans = 4 * walk(test::twin_wing_boxes(false)).truth.size();
+  ASSERT_GT(0.05 * static_cast<double>(scans), 2.0 * LookAlikeOptions{}.refute_nats) << "the walk is too short";
+  EXPECT_EQ(first_proof(-0.05), scans);
+  const double window_scans = LookAlikeOptions{}.proof_window_m / 0.3;
+  EXPECT_LE(first_proof(-1.0), static_cast<std::size_t>(window_scans));
+}
+
+// Evidence against one track says nothing against another: when the track jumps (a global search's mode gave way
+// to another place), a kept look-alike's sums start over. Against the old track it gathered most of a proof; against
+// the new one the scans favour it by a third of a nat each, which never proves it within the window.
+TEST(LookAlikes, EvidenceStartsOverWhenTheTrackJumps) {
+  const std::vector<Box> boxes = test::twin_wing_boxes(false);
+  const TsdfMap map = twin_map(false);
+  const Walk w = walk(boxes);
+  double per_scan = -1.4;  // for the look-alike, against whichever track there is
+  const LookAlikeMemory::Judge fixed = [&](const Pose& a, const Pose& b, const std::vector<Eigen::Vector3f>& points) {
+    LookAlikeMemory::Verdict v = judge(map, a, b, points);
+    v.evidence = per_scan;
+    return v;
+  };
+  LookAlikeMemory m(map, LookAlikeOptions{}, fixed, 0.5, 0.35);
+  const Pose elsewhere = pose_from_xyz_rpy(0.0, 1.5, 0.0, 0.0, 0.0, 0.0);  // the other place the track jumps to
+  for (std::size_t i = 0; i < 12; ++i) {
+    const Pose motion = i == 0 ? Pose::Identity() : w.truth[i - 1].inverse() * w.truth[i];
+    std::vector<Pose> others;
+    if (i == 0) others.push_back(half_turn(w.truth[0]));
+    const bool jumped = i >= 2;
+    if (jumped) per_scan = -0.3;
+    const Pose track = jumped ? elsewhere * w.truth[i] : w.truth[i];
+    ASSERT_GE(m.update(track, motion, others, w.points[i], true), 1u) << "scan " << i;  // and the place it left
+    EXPECT_FALSE(m.proven()) << "scan " << i << ": proven by evidence against the track it left";
   }
 }
 
@@ -153,7 +284,7 @@ TEST(LookAlikes, APlaceOffTheMapIsNone) {
   LookAlikeMemory m = memory(map);
   const Pose outside = pose_from_xyz_rpy(-6.0, -6.0, 2.8, 0.0, 0.0, 2.5);
   ASSERT_NEAR(judge(map, w.truth[0], outside, w.points[0]).evidence, 0.0, 1e-9) << "the scene no longer shows it";
-  EXPECT_EQ(m.update(w.truth[0], Pose::Identity(), {outside, half_turn(w.truth[0])}, w.points[0]), 1u);
+  EXPECT_EQ(m.update(w.truth[0], Pose::Identity(), {outside, half_turn(w.truth[0])}, w.points[0], true), 1u);
   EXPECT_LT(test::translation_error(m.places().front(), half_turn(w.truth[0])), 0.2);
 }
 
@@ -170,7 +301,8 @@ TEST(LookAlikes, OptionsSayWhatIsWrong) {
   o.refute_nats = 0.0;  // off
   LookAlikeMemory off = make(o);
   EXPECT_FALSE(off.enabled());
-  EXPECT_EQ(off.update(Pose::Identity(), Pose::Identity(), {pose_from_xyz_rpy(5.0, 0.0, 0.0, 0.0, 0.0, 0.0)}, {}), 0u);
+  EXPECT_EQ(off.update(Pose::Identity(), Pose::Identity(), {pose_from_xyz_rpy(5.0, 0.0, 0.0, 0.0, 0.0, 0.0)}, {}, true),
+            0u);
 }
 
 }  // namespace

@@ -206,13 +206,14 @@ struct FilterStep {
   double fit = 0.0;                // mean per-point geometric-mean likelihood over particles (diagnostic)
   double w_slow = 0.0;
   double w_fast = 0.0;
-  double random_share = 0.0;      // share of the next generation from the proposal (recovery)
-  bool concentrated = false;      // the dominant hypothesis holds converged_weight and is compact
-  bool implausible = false;       // ... and its inlier ratio is below recovery_min_inliers
-  bool challenged = false;        // another hypothesis explains the scan nearly as well (convergence.hpp)
-  std::vector<Pose> look_alikes;  // places the scans have not told from the track (look_alikes.hpp)
-  std::size_t challengers = 0;    // particles of the background search added in this update
-  std::size_t restored = 0;       // particles put back on the track after a disproven challenger
+  double random_share = 0.0;            // share of the next generation from the proposal (recovery)
+  bool concentrated = false;            // the dominant hypothesis holds converged_weight and is compact
+  bool implausible = false;             // ... and its inlier ratio is below recovery_min_inliers
+  bool challenged = false;              // another hypothesis explains the scan nearly as well (convergence.hpp)
+  std::vector<Pose> look_alikes;        // places the scans have not told from the track (look_alikes.hpp)
+  std::size_t challengers = 0;          // particles of the background search added in this update
+  std::size_t restored = 0;             // particles put back on the track after a disproven challenger
+  std::size_t look_alike_restored = 0;  // particles put at a look-alike the scans proved better (look_alikes.hpp)
   // The published estimate stays on the track against a dominant hypothesis elsewhere that is not proven yet
   // (track_keeper.hpp); the challenge's paired evidence (nats) and travel (m) so far.
   bool holding = false;
@@ -355,7 +356,8 @@ class ParticleFilter {
     std::size_t count = 0;
     std::size_t candidates = 0;  // screened down to `count` from this many; count = drawn as they come
     double share = 0.0;          // of the belief, all of them together
-    std::optional<Pose> around;  // drawn near this pose (the track), not from the proposal
+    std::optional<Pose> around;  // drawn near this pose (the track, a proven look-alike), not from the proposal
+    bool look_alike = false;     // around a proven look-alike
   };
   Injection plan_injection(double time, const FilterStep& step) const;
   // The next generation: `budget` particles drawn per hypothesis (count_groups) and the injection's after them.
@@ -396,8 +398,15 @@ class ParticleFilter {
   TrackKeeper keeper_;
   LookAlikeMemory look_alikes_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
-  bool trusted_ = false;          // converged with enough map coverage, not lapsed where the map covers the scan
-  bool track_followed_ = false;   // this update: the dominant hypothesis continues the kept track (keep_track)
+  // A look-alike the memory proved better than the track (remember_look_alikes): the next resampling puts particles
+  // there with this share of the belief.
+  struct ProvenLookAlike {
+    Pose place;
+    double share = 0.0;
+  };
+  std::optional<ProvenLookAlike> proven_look_alike_;
+  bool trusted_ = false;         // converged with enough map coverage, not lapsed where the map covers the scan
+  bool track_followed_ = false;  // this update: the dominant hypothesis continues the kept track (keep_track)
   Matrix6d track_covariance_ = Matrix6d::Zero();
   GroupResampler group_resampler_;
 
