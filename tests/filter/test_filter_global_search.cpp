@@ -36,6 +36,23 @@ Pose mirrored(const Pose& p) {
 // From room A through its door and along the corridor past the niche: 0.3 m steps, yaw along the path.
 std::vector<Pose> twin_wing_route() { return test::route_through({{1.5, 3.0}, {4.5, 4.0}, {6.1, 4.0}, {16.5, 4.0}}); }
 
+// The twin-wing building with the cabinet, its map and the walk past the niche (drifting odometry, scans).
+struct TwinWingWalk {
+  TsdfMap map;
+  std::vector<Pose> truth, odometry;
+  Scans scans;
+};
+TwinWingWalk twin_wing_walk() {
+  const std::vector<Box> boxes = test::twin_wing_boxes(true);
+  TwinWingWalk w{test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f)),
+                 twin_wing_route(),
+                 {},
+                 {}};
+  w.odometry = test::drifting_odometry(w.truth, 7);
+  w.scans = scan_route(boxes, w.truth, 5);
+  return w;
+}
+
 // TSDF_MCL_TEST_DEBUG=1 prints every step (for tuning, never in CI).
 void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
   if (!std::getenv("TSDF_MCL_TEST_DEBUG")) return;
@@ -120,12 +137,8 @@ TEST(GlobalSearch, LocalizesWithoutPriorsAndClaimsConvergenceOnlyWhenRight) {
 // hold both (a hypothesis at the true pose and one at its mirror image) and never claim convergence; after it,
 // converge at the true pose.
 TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
-  const std::vector<Box> boxes = test::twin_wing_boxes(true);
-  const TsdfMap map =
-      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
-  const std::vector<Pose> truth = twin_wing_route();
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
-  const Scans scans = scan_route(boxes, truth, 5);
+  const TwinWingWalk walk = twin_wing_walk();
+  const auto& [map, truth, odometry, scans] = walk;
   auto eval = cpu_evaluator(map);
   ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
   ScanExtras extras;
@@ -164,12 +177,8 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
 // at the proven look-alike), turning the estimate within a metre of the cabinet's first sight, and never claims the
 // wrong wing. A small first search (4,000 candidates, 2,000 kept) holds one wing only in most seeds.
 TEST(GlobalSearch, ADroppedWingComesBackWhenTheCabinetProvesIt) {
-  const std::vector<Box> boxes = test::twin_wing_boxes(true);
-  const TsdfMap map =
-      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
-  const std::vector<Pose> truth = twin_wing_route();
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
-  const Scans scans = scan_route(boxes, truth, 5);
+  const TwinWingWalk walk = twin_wing_walk();
+  const auto& [map, truth, odometry, scans] = walk;
   const double cabinet_x = 9.7;  // the cabinet comes into view
   std::size_t turned = 0;        // seeds whose estimate the proof turned
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
@@ -208,12 +217,8 @@ TEST(GlobalSearch, ADroppedWingComesBackWhenTheCabinetProvesIt) {
 // keep joins the rest, and resampling must not give its emptied group particles to draw (it threw "group 2 has no
 // particles to draw from" on the first update).
 TEST(GlobalSearch, HypothesesTooLightToKeepJoinTheRest) {
-  const std::vector<Box> boxes = test::twin_wing_boxes(true);
-  const TsdfMap map =
-      test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(24.2f, 8.2f, 2.8f));
-  const std::vector<Pose> truth = twin_wing_route();
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 7);
-  const Scans scans = scan_route(boxes, truth, 5);
+  const TwinWingWalk walk = twin_wing_walk();
+  const auto& [map, truth, odometry, scans] = walk;
   auto eval = cpu_evaluator(map);
   FilterParameters p = test::small_building_parameters();
   p.hypothesis_min_weight = 0.3;
