@@ -38,9 +38,9 @@ void ConvergenceMonitor::restart_after_wrong_lock() {
 }
 
 namespace {
-// The share of the whole scan a hypothesis explains: a competitor whose points fly out of the map does not
-// explain them (its inlier ratio counts only the points the map observed there). NaN coverage: not computed.
-double explained(const Hypothesis& h) { return std::isnan(h.coverage) ? h.inlier_ratio : h.inlier_ratio * h.coverage; }
+// The share of the whole scan a hypothesis explains: a competitor whose points fly out of the map does not explain
+// them (its inlier ratio counts only the points the map observed there).
+double explained(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
 }  // namespace
 
 bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {

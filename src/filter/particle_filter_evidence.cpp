@@ -305,7 +305,7 @@ bool ParticleFilter::map_judges_track() const {
 
 double ParticleFilter::judged_ratio() const {
   if (trusted_track()) return estimate_.inlier_ratio;
-  return std::isnan(estimate_.coverage) ? estimate_.inlier_ratio : estimate_.inlier_ratio * estimate_.coverage;
+  return explained_share(estimate_.inlier_ratio, estimate_.coverage);
 }
 
 float ParticleFilter::frontier_reach() const {
@@ -554,9 +554,7 @@ void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<E
   if (!look_alikes_.enabled() || h.empty() || local_start_) return;
   // The other hypotheses that explain about as much of the scan as the track (LookAlikeOptions::explain_margin): the
   // others are no look-alikes, and judging them costs a ray march each.
-  const auto explained = [](const Hypothesis& x) {
-    return std::isnan(x.coverage) ? x.inlier_ratio : x.inlier_ratio * x.coverage;
-  };
+  const auto explained = [](const Hypothesis& x) { return explained_share(x.inlier_ratio, x.coverage); };
   std::vector<Pose> others;
   for (std::size_t k = 1; k < h.size(); ++k) {
     if (explained(h[k]) >= explained(h.front()) - params_.look_alikes.explain_margin) others.push_back(h[k].pose);

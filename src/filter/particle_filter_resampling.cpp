@@ -20,6 +20,9 @@ namespace tsdf_mcl {
 ParticleFilter::Injection ParticleFilter::plan_injection(double time, const FilterStep& step) const {
   Injection in;
   const std::size_t max = params_.kld.max_particles;
+  // Particles put tightly around one place (a restored track, a proven look-alike): as many as a kept hypothesis.
+  const std::size_t around_count =
+      std::min(max, std::max<std::size_t>(params_.hypothesis_min_particles, params_.kld.min_particles));
   if (step.random_share > 0.0) {
     // Recovery. After an implausible fit the track is wrong and the search starts over: screened on this scan
     // like a global search. After a dip of the relative fit (a correct track shows them now and then) drawn as
@@ -30,14 +33,14 @@ ParticleFilter::Injection ParticleFilter::plan_injection(double time, const Filt
     in.share = step.random_share;
   } else if (restore_pending_ && keeper_.active()) {
     // A disproven challenger took the belief off the track: half of it goes back there, tightly around it.
-    in.count = std::min(max, std::max<std::size_t>(params_.hypothesis_min_particles, params_.kld.min_particles));
+    in.count = around_count;
     in.candidates = in.count;
     in.share = 0.5;
     in.around = keeper_.pose();
   } else if (proven_look_alike_) {
     // A look-alike the scans proved better, of which the belief holds too little: as many particles, with the share
     // its evidence gives it (LookAlikeMemory::proven).
-    in.count = std::min(max, std::max<std::size_t>(params_.hypothesis_min_particles, params_.kld.min_particles));
+    in.count = around_count;
     in.candidates = in.count;
     in.share = proven_look_alike_->share;
     in.around = proven_look_alike_->place;

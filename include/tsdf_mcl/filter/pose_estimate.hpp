@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -38,6 +39,13 @@ struct PoseEstimateOptions {
 
   void validate() const;  // throws Error naming the parameter
 };
+
+// The share of the whole scan a place explains: its inlier ratio (over the points with map evidence) times its map
+// coverage. A place whose points fly out of the map does not explain them. NaN coverage (not computed): the inlier
+// ratio alone.
+inline double explained_share(double inlier_ratio, double coverage) {
+  return std::isnan(coverage) ? inlier_ratio : inlier_ratio * coverage;
+}
 
 // One mode of the belief: a place (and orientation) the particles say the sensor may be.
 struct Hypothesis {
