@@ -124,8 +124,12 @@ struct FilterParameters {
   // at the mode's mean pose refined onto the map (scan_fit.hpp). Each of the heaviest modes
   // (PoseEstimateOptions::max_hypotheses) holding at least hypothesis_min_weight of the belief keeps at least
   // hypothesis_min_particles particles through resampling, whatever its share: a look-alike room is not lost to
-  // resampling noise before a view tells the rooms apart.
-  double hypothesis_evidence_points = 16.0;
+  // resampling noise before a view tells the rooms apart. 64 of 512 points: between places only the points beyond
+  // the dead band, observed at both, count (scan_fit.hpp: paired_evidence), which keeps most of identical rooms'
+  // residue out of the sum; a staircase seen from afar (5-15 of the 512 points) turned a concentrated belief 2-4
+  // scans after its first sight, at 16 5-11 (docs/filter.md, "A scan between places counts as 64 points"). The
+  // look-alike memory (look_alikes.hpp) sums its evidence in the same units.
+  double hypothesis_evidence_points = 64.0;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
   // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
   // cloud (weigh_track_on_evidence), unless this is set.
