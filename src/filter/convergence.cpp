@@ -37,12 +37,6 @@ void ConvergenceMonitor::restart_after_wrong_lock() {
   jumped_ = true;
 }
 
-namespace {
-// The share of the whole scan a hypothesis explains: a competitor whose points fly out of the map does not explain
-// them (its inlier ratio counts only the points the map observed there).
-double explained(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
-}  // namespace
-
 bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
   if (e.hypotheses.empty()) return false;
   const Hypothesis& top = e.hypotheses.front();
@@ -51,7 +45,7 @@ bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
     const bool elsewhere = (h.pose.translation() - top.pose.translation()).norm() > options_.max_jump_m ||
                            rotation_angle_between(h.pose.linear(), top.pose.linear()) > options_.max_jump_rad;
     if (elsewhere && h.weight >= options_.competitor_min_weight &&
-        explained(h) >= explained(top) - options_.competitor_margin) {
+        explained_share(h) >= explained_share(top) - options_.competitor_margin) {
       return true;
     }
   }

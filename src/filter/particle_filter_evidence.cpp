@@ -554,10 +554,10 @@ void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<E
   if (!look_alikes_.enabled() || h.empty() || local_start_) return;
   // The other hypotheses that explain about as much of the scan as the track (LookAlikeOptions::explain_margin): the
   // others are no look-alikes, and judging them costs a ray march each.
-  const auto explained = [](const Hypothesis& x) { return explained_share(x.inlier_ratio, x.coverage); };
   std::vector<Pose> others;
   for (std::size_t k = 1; k < h.size(); ++k) {
-    if (explained(h[k]) >= explained(h.front()) - params_.look_alikes.explain_margin) others.push_back(h[k].pose);
+    if (explained_share(h[k]) >= explained_share(h.front()) - params_.look_alikes.explain_margin)
+      others.push_back(h[k].pose);
   }
   // And the places this scan fits best whatever their share: a challenger the background search just placed holds
   // too little of the belief to be among the heaviest modes, and resampling may drop it before it is one. The best

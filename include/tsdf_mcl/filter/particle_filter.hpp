@@ -127,7 +127,7 @@ struct FilterParameters {
   // resampling noise before a view tells the rooms apart. 64 of 512 points: between places only the points beyond
   // the dead band, observed at both, count (scan_fit.hpp: paired_evidence), which keeps most of identical rooms'
   // residue out of the sum; a staircase seen from afar (5-15 of the 512 points) turned a concentrated belief 2-4
-  // scans after its first sight, at 16 5-11 (docs/filter.md, "A scan between places counts as 64 points"). The
+  // scans after its first sight, 5-11 at 16 (docs/filter.md, "A scan between places counts as 64 points"). The
   // look-alike memory (look_alikes.hpp) sums its evidence in the same units.
   double hypothesis_evidence_points = 64.0;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,

@@ -65,6 +65,9 @@ struct Hypothesis {
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();
 };
 
+// explained_share of a hypothesis at its pose.
+inline double explained_share(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
+
 struct PoseEstimate {
   Pose pose = Pose::Identity();
   // Covariance of (x, y, z, rx, ry, rz): position in the world frame, rotation as the rotation vector of
