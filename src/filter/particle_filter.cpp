@@ -58,6 +58,8 @@ void FilterParameters::validate() const {
   if (!(inlier_distance > 0.0f) || !std::isfinite(inlier_distance)) throw Error("inlier_distance must be positive");
   if (!(wall_tilt_information >= 0.0) || !std::isfinite(wall_tilt_information))
     throw Error("wall_tilt_information must not be negative");
+  if (!(see_through_weight >= 0.0) || !std::isfinite(see_through_weight))
+    throw Error("see_through_weight must not be negative");
   if (!(recovery_min_inliers >= 0.0 && recovery_min_inliers <= 1.0))
     throw Error("recovery_min_inliers must lie in [0, 1]");
   if (!(challenger_interval >= 0.0) || !std::isfinite(challenger_interval))

@@ -3,6 +3,7 @@
 #include "tsdf_mcl/filter/particle_filter.hpp"
 
 #include <algorithm>
+#include <array>
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <functional>
@@ -375,7 +376,10 @@ void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Ei
   place_of_.assign(n, -1);
   const auto near = static_cast<float>(kTrackRadius);
   for (std::size_t c = 0; c < centres.size(); ++c) {
-    ray_fit(map_, centres[c], points, params_.inlier_distance, 0.4f, &evidence_observed_);
+    const RayFit centre_fit =
+        ray_fit(map_, centres[c], points, params_.inlier_distance, kSeeThroughMargin, &evidence_observed_);
+    const double below_coverage =
+        params_.see_through_weight > 0.0 ? coverage_below_horizon(centres[c], points, evidence_observed_) : 0.0;
     const std::size_t dropped = drop_frontier_points(map_, centres[c], points, reach, evidence_observed_);
     std::size_t unobserved = 0;
     for (const std::uint8_t o : evidence_observed_) unobserved += o ? 0 : 1;
@@ -415,10 +419,66 @@ void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Ei
       place_of_[members_[j]] = static_cast<std::int32_t>(c);
       evidence_log_weight_[members_[j]] = spare.log_weight[j];
     }
+    weigh_height_on_rays(centres[c], points, centre_fit.see_through, below_coverage);
     places_reweighed_ = c + 1;
     track_reweighed_ = true;
     // The report's figure: the first place weighed so, the estimate's where it was.
     if (step.weighed_points == 0) step.weighed_points = evidence_points_.size();
+  }
+}
+
+double ParticleFilter::coverage_below_horizon(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
+                                              const std::vector<std::uint8_t>& observed) {
+  const Eigen::Vector3f up_in_sensor =
+      (centre.linear().transpose() * proposal().map_up().cast<double>()).cast<float>().normalized();
+  std::size_t below = 0, seen = 0;
+  for (std::size_t j = 0; j < points.size() && j < observed.size(); ++j) {
+    if (points[j].dot(up_in_sensor) >= 0.0f) continue;
+    ++below;
+    seen += observed[j] ? 1 : 0;
+  }
+  return below ? static_cast<double>(seen) / static_cast<double>(below) : 0.0;
+}
+
+void ParticleFilter::weigh_height_on_rays(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
+                                          std::size_t see_through_at_centre, double below_coverage) {
+  // Only where the map holds most of what the sensor sees below its horizon (the floor and what stands on it), whose
+  // surfaces the lowered rays pass through. Deep in a room the mapping run skipped, the rays meet the map's residue
+  // there instead (walls held from the next room, furniture that grazing rays carved free): 0-6 of 512 see through
+  // at any height, and that noise moved the height of avz-skip's VLP-16 drone 0.2-0.3 m. The points above the
+  // horizon do not count: those above the walls' mapped band are what leaves the height to the rays.
+  if (!(params_.see_through_weight > 0.0) || below_coverage < kMostOfTheScan) return;
+  // The rays' see-through (ray_fit) at the place's pose shifted along the map's up axis by up to a truncation length
+  // in thirds: off in height, rays that end on a mapped surface at the true pose (the floor, what stands on it, a
+  // mapped ceiling) pass into it before they end. The points clear of the frontier cannot tell heights apart where the
+  // map saw the walls only up to a band (they favour whichever pose picked them: docs/filter.md, "Why the avz
+  // handheld's height stayed low"); the rays can. Each particle takes the count at its own height (linear between the
+  // steps, the ends held).
+  constexpr int kSteps = 3;
+  const Eigen::Vector3d up = proposal().map_up().cast<double>().normalized();
+  const double step = static_cast<double>(map_.truncation()) / kSteps;
+  std::array<double, 2 * kSteps + 1> see{};
+  see[kSteps] = static_cast<double>(see_through_at_centre);
+#pragma omp parallel for schedule(static)
+  for (int k = -kSteps; k <= kSteps; ++k) {
+    if (k == 0) continue;
+    Pose shifted = centre;
+    shifted.translation() += up * (k * step);
+    see[static_cast<std::size_t>(k + kSteps)] =
+        static_cast<double>(ray_fit(map_, shifted, points, params_.inlier_distance, kSeeThroughMargin).see_through);
+  }
+  // A ray through a surface costs what a point far from every surface costs against one on it, tempered like the
+  // points (the sensor model's exponent; the update's tempering applies to both in weigh_track_within).
+  const EndpointModel& m = params_.sensor;
+  const double per_ray = params_.see_through_weight * static_cast<double>(m.weight_exponent) *
+                         std::log((m.hit_scale() + m.p_rand()) / m.p_rand());
+  const ParticleArrays p = evaluator_.particles();
+  for (const std::uint32_t i : members_) {
+    const double offset = (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - centre.translation()).dot(up) / step;
+    const double u = std::clamp(offset, -static_cast<double>(kSteps), static_cast<double>(kSteps)) + kSteps;
+    const auto k = static_cast<std::size_t>(std::min(std::floor(u), 2.0 * kSteps - 1.0));
+    const double f = u - static_cast<double>(k);
+    evidence_log_weight_[i] -= per_ray * ((1.0 - f) * see[k] + f * see[k + 1]);
   }
 }
 

@@ -283,6 +283,11 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        "let points at the frontier of the map's observed space (within a truncation length of space it never "
        "observed) count as evidence between places and between a concentrated cloud's particles (off: they do not)",
        kAdvanced},
+      {"see_through_weight", "W", num(f.see_through_weight),
+       "a place weighed on the points clear of the frontier also weighs its particles' heights on the scan's rays "
+       "where the map holds what the sensor sees below its horizon: a ray through a surface of the map costs this "
+       "many times a missed point (0 = off)",
+       kAdvanced},
       {"hypothesis_min_particles", "N", std::to_string(f.hypothesis_min_particles),
        "each hypothesis with at least hypothesis_min_weight keeps this many particles through resampling", kAdvanced},
       {"hypothesis_min_weight", "W", num(f.hypothesis_min_weight),

@@ -57,6 +57,7 @@ TEST(LocalizerParameters, EveryNameOnceInAKnownGroupAndTheDefaultsAreTheLibrarys
   EXPECT_FLOAT_EQ(o.filter.sensor.sigma_hit, f.sensor.sigma_hit);
   EXPECT_DOUBLE_EQ(o.filter.update_min_a, f.update_min_a);
   EXPECT_DOUBLE_EQ(o.filter.wall_tilt_information, f.wall_tilt_information);
+  EXPECT_DOUBLE_EQ(o.filter.see_through_weight, f.see_through_weight);
   EXPECT_EQ(o.preprocessing.max_beams, ScanPreprocessing{}.max_beams);
   EXPECT_FALSE(o.initial_pose.has_value());
   EXPECT_TRUE(o.use_imu);
@@ -69,6 +70,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
                                                      {"imu_rotation", "1"},
                                                      {"update_min_a", "10deg"},
                                                      {"wall_tilt_information", "0"},
+                                                     {"see_through_weight", "0.5"},
                                                      {"init", "initial_pose"},
                                                      {"initial_pose.x", "2"},
                                                      {"initial_pose.yaw", "90deg"}});
@@ -78,6 +80,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
   EXPECT_TRUE(o.filter.motion.imu_rotation);
   EXPECT_NEAR(o.filter.update_min_a, 10.0 * M_PI / 180.0, 1e-12);
   EXPECT_EQ(o.filter.wall_tilt_information, 0.0);
+  EXPECT_EQ(o.filter.see_through_weight, 0.5);
   ASSERT_TRUE(o.initial_pose.has_value());
   EXPECT_NEAR(o.initial_pose->translation().x(), 2.0, 1e-12);
   EXPECT_NEAR(yaw_of(*o.initial_pose), M_PI / 2, 1e-9);

@@ -134,6 +134,12 @@ struct FilterParameters {
   // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
   // cloud (weigh_track_on_evidence), unless this is set.
   bool frontier_evidence = false;
+  // A place weighed on its own points (weigh_track_on_evidence) also weighs its particles' heights on the scan's rays,
+  // where the map holds most of what the sensor sees below its horizon: a ray that passes into a surface of the map
+  // well before its end costs this many times what a point far from every surface costs against one on a surface
+  // (0 = off). Where the map holds the walls only up to a band, the points cannot tell a pose 0.35 m low from the
+  // truth; the rays can (docs/filter.md, "Why the avz handheld's height stayed low").
+  double see_through_weight = 1.0;
   std::size_t hypothesis_min_particles = 200;
   double hypothesis_min_weight = 1e-5;
   // A scan point is an inlier (scan_fit.hpp) within this distance of a surface (m).
@@ -290,6 +296,13 @@ class ParticleFilter {
   // every particle).
   void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta,
                                FilterStep& step);
+  // Adds each member of the place at `centre` (members_) its height's see-through cost to evidence_log_weight_
+  // (see_through_weight); `see_through_at_centre` is ray_fit's count at the centre itself, `below_coverage` the
+  // share of the points below the sensor's horizon there with map evidence (`observed`: ray_fit's flags).
+  void weigh_height_on_rays(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
+                            std::size_t see_through_at_centre, double below_coverage);
+  double coverage_below_horizon(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
+                                const std::vector<std::uint8_t>& observed);
   // The predicted poses of the places weigh_track_on_evidence weighs on their own points (none before there is a
   // track to keep, or while the belief is spread; a local start's given pose is one from the start).
   std::vector<Pose> evidence_centres(const Pose& delta, double reach) const;
@@ -436,6 +449,8 @@ class ParticleFilter {
   // band kept their whole-scan weights, which count its unobserved points as misses, joined its mode and spread it
   // past the compact test; the place was then weighed on the whole scan and sank (ChangedMap.*KeepsItsHeight).
   static constexpr double kTrackRadius = 2.0;
+  // m: a ray sees through a surface only this far or more before its endpoint (ray_fit's end_margin).
+  static constexpr float kSeeThroughMargin = 0.4f;
   static constexpr std::size_t kMaxEvidencePlaces = 4;  // places weighed on their own points, at most
   // Places outside the hypotheses, the scan's best-fitting particles, that the look-alike memory weighs each update.
   static constexpr std::size_t kFittestPlaces = 4;
