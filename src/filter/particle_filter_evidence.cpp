@@ -419,7 +419,7 @@ void ParticleFilter::weigh_track_on_evidence(std::size_t n, const std::vector<Ei
       place_of_[members_[j]] = static_cast<std::int32_t>(c);
       evidence_log_weight_[members_[j]] = spare.log_weight[j];
     }
-    weigh_height_on_rays(centres[c], points, centre_fit.see_through, below_coverage);
+    weigh_height_on_rays(centres[c], points, centre_fit, below_coverage);
     places_reweighed_ = c + 1;
     track_reweighed_ = true;
     // The report's figure: the first place weighed so, the estimate's where it was.
@@ -441,13 +441,18 @@ double ParticleFilter::coverage_below_horizon(const Pose& centre, const std::vec
 }
 
 void ParticleFilter::weigh_height_on_rays(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
-                                          std::size_t see_through_at_centre, double below_coverage) {
+                                          const RayFit& centre_fit, double below_coverage) {
   // Only where the map holds most of what the sensor sees below its horizon (the floor and what stands on it), whose
   // surfaces the lowered rays pass through. Deep in a room the mapping run skipped, the rays meet the map's residue
   // there instead (walls held from the next room, furniture that grazing rays carved free): 0-6 of 512 see through
   // at any height, and that noise moved the height of avz-skip's VLP-16 drone 0.2-0.3 m. The points above the
   // horizon do not count: those above the walls' mapped band are what leaves the height to the rays.
   if (!(params_.see_through_weight > 0.0) || below_coverage < kMostOfTheScan) return;
+  // And only at a place that fits the scan as a track that may converge does (converged_min_inliers). At a wrong
+  // place the rays see through at every height; weighed, they moved its particles to the height that fits least
+  // badly, and a kidnapped track's fit no longer looked implausible enough to start the search again
+  // (Kidnapping.FilterRecoversWithoutARestart: no search in 30 updates).
+  if (centre_fit.inlier_ratio() < params_.convergence.min_inlier_ratio) return;
   // The rays' see-through (ray_fit) at the place's pose shifted along the map's up axis by up to a truncation length
   // in thirds: off in height, rays that end on a mapped surface at the true pose (the floor, what stands on it, a
   // mapped ceiling) pass into it before they end. The points clear of the frontier cannot tell heights apart where the
@@ -458,7 +463,7 @@ void ParticleFilter::weigh_height_on_rays(const Pose& centre, const std::vector<
   const Eigen::Vector3d up = proposal().map_up().cast<double>().normalized();
   const double step = static_cast<double>(map_.truncation()) / kSteps;
   std::array<double, 2 * kSteps + 1> see{};
-  see[kSteps] = static_cast<double>(see_through_at_centre);
+  see[kSteps] = static_cast<double>(centre_fit.see_through);
 #pragma omp parallel for schedule(static)
   for (int k = -kSteps; k <= kSteps; ++k) {
     if (k == 0) continue;

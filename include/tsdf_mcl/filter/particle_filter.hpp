@@ -297,10 +297,10 @@ class ParticleFilter {
   void weigh_track_on_evidence(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta,
                                FilterStep& step);
   // Adds each member of the place at `centre` (members_) its height's see-through cost to evidence_log_weight_
-  // (see_through_weight); `see_through_at_centre` is ray_fit's count at the centre itself, `below_coverage` the
-  // share of the points below the sensor's horizon there with map evidence (`observed`: ray_fit's flags).
-  void weigh_height_on_rays(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
-                            std::size_t see_through_at_centre, double below_coverage);
+  // (see_through_weight); `centre_fit` is ray_fit at the centre itself, `below_coverage` the share of the points
+  // below the sensor's horizon there with map evidence (`observed`: ray_fit's flags).
+  void weigh_height_on_rays(const Pose& centre, const std::vector<Eigen::Vector3f>& points, const RayFit& centre_fit,
+                            double below_coverage);
   double coverage_below_horizon(const Pose& centre, const std::vector<Eigen::Vector3f>& points,
                                 const std::vector<std::uint8_t>& observed);
   // The predicted poses of the places weigh_track_on_evidence weighs on their own points (none before there is a
