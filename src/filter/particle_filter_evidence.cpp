@@ -145,7 +145,7 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
 #pragma omp parallel for schedule(dynamic)
   for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
     const auto r = static_cast<std::size_t>(rr);
-    places.fit[r] = ray_fit(map, places.pose[r], points, inlier_distance, 0.4f, &places.observed[r]);
+    places.fit[r] = ray_fit(map, places.pose[r], points, inlier_distance, kSeeThroughMargin, &places.observed[r]);
     if (frontier_reach > 0.0f) drop_frontier_points(map, places.pose[r], points, frontier_reach, places.observed[r]);
   }
   for (std::size_t r = 0; r < h.size(); ++r) {
@@ -547,7 +547,7 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
     const Eigen::Quaternionf q(Eigen::Quaterniond(continuation.linear()).cast<float>());
     point_log_likelihoods(map_, plain, continuation.translation().cast<float>(), q, points, log);
     std::vector<std::uint8_t> observed;
-    fit = ray_fit(map_, continuation, points, params_.inlier_distance, 0.4f, &observed);
+    fit = ray_fit(map_, continuation, points, params_.inlier_distance, kSeeThroughMargin, &observed);
     if (frontier_reach() > 0.0f) drop_frontier_points(map_, continuation, points, frontier_reach(), observed);
     const PairedEvidence e = paired_evidence(top_log_, top_observed_, log, observed, evidence_dead_band());
     evidence = params_.hypothesis_evidence_points * e.sum / static_cast<double>(points.size());

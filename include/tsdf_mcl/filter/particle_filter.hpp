@@ -449,8 +449,6 @@ class ParticleFilter {
   // band kept their whole-scan weights, which count its unobserved points as misses, joined its mode and spread it
   // past the compact test; the place was then weighed on the whole scan and sank (ChangedMap.*KeepsItsHeight).
   static constexpr double kTrackRadius = 2.0;
-  // m: a ray sees through a surface only this far or more before its endpoint (ray_fit's end_margin).
-  static constexpr float kSeeThroughMargin = 0.4f;
   static constexpr std::size_t kMaxEvidencePlaces = 4;  // places weighed on their own points, at most
   // Places outside the hypotheses, the scan's best-fitting particles, that the look-alike memory weighs each update.
   static constexpr std::size_t kFittestPlaces = 4;

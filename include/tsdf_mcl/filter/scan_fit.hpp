@@ -49,12 +49,15 @@ struct RayFit {
     return points ? static_cast<double>(see_through) / static_cast<double>(points) : 0.0;
   }
 };
+// m: how far before its endpoint a ray must enter a surface to see through it (ray_fit's default end_margin).
+inline constexpr float kSeeThroughMargin = 0.4f;
+
 // Marches every ray from the sensor to its endpoint through the map (steps of the map's distance where it is
 // known and positive, so free space costs little). A ray counts as seeing through once it is more than two
 // voxels inside a surface at a point more than `end_margin` (m) before its endpoint.
 // `observed`, if given, receives one flag per point: 1 = map evidence, 0 = unobserved.
 RayFit ray_fit(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,
-               float max_distance, float end_margin = 0.4f, std::vector<std::uint8_t>* observed = nullptr);
+               float max_distance, float end_margin = kSeeThroughMargin, std::vector<std::uint8_t>* observed = nullptr);
 
 // Paired evidence between two poses on one scan: the sum over the points with map evidence under BOTH poses of
 // the log-likelihood difference (a minus b) beyond `dead_band` (what a point a little off a surface loses; the
