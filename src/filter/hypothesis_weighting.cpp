@@ -39,6 +39,45 @@ std::vector<double> place_evidence(double reference_total, const std::vector<dou
   return evidence;
 }
 
+std::vector<std::size_t> decisively_beaten(const std::vector<PlaceJudgement>& places,
+                                           const std::vector<double>& evidence, double gap, double min_coverage,
+                                           std::size_t& best) {
+  if (evidence.size() != places.size() + 1) throw Error("hypothesis weighting: one evidence per place and the rest");
+  best = places.size();
+  std::vector<std::size_t> beaten;
+  if (!(gap > 0.0) || places.empty()) return beaten;
+  const auto b = static_cast<std::size_t>(
+      std::max_element(evidence.begin(), evidence.begin() + static_cast<std::ptrdiff_t>(places.size())) -
+      evidence.begin());
+  if (evidence[b] < evidence.back()) return beaten;  // the rest has no pose to judge a fit at
+  const auto judged = [&](const PlaceJudgement& p) { return p.compact && !p.waits && p.coverage >= min_coverage; };
+  if (!judged(places[b])) return beaten;
+  best = b;
+  for (std::size_t r = 0; r < places.size(); ++r) {
+    if (r != b && judged(places[r]) && places[b].inlier_ratio - places[r].inlier_ratio >= gap) beaten.push_back(r);
+  }
+  return beaten;
+}
+
+void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const std::vector<double>& evidence,
+               const std::vector<double>& prior_log_share, double full, double turn_log_odds,
+               std::vector<double>& nats) {
+  if (evidence.size() != nats.size() || prior_log_share.size() != nats.size())
+    throw Error("hypothesis weighting: one evidence, share and count per place and the rest");
+  if (beaten.empty()) return;
+  if (best + 1 >= nats.size()) throw Error("hypothesis weighting: the best place must be a place");
+  const std::size_t b = best;
+  if (!std::isfinite(prior_log_share[b])) return;
+  for (const std::size_t r : beaten) {
+    if (r + 1 >= nats.size() || r == b) throw Error("hypothesis weighting: a beaten place must be another place");
+    if (!std::isfinite(prior_log_share[r])) continue;
+    // r's nats that leave b's odds over r at turn_log_odds; the count in full; what the ordinary count gave.
+    const double turned = (prior_log_share[b] + nats[b]) - prior_log_share[r] - turn_log_odds;
+    const double counted = nats[b] + full * (evidence[r] - evidence[b]);
+    nats[r] = std::min(nats[r], std::max(counted, turned));
+  }
+}
+
 std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
                                     const std::vector<double>& evidence) {
   const std::size_t groups = evidence.size();

@@ -51,6 +51,8 @@ void FilterParameters::validate() const {
   if (!(hypothesis_evidence_points >= 0.0) || !std::isfinite(hypothesis_evidence_points)) {
     throw Error("hypothesis_evidence_points must not be negative");
   }
+  if (!(decisive_inlier_gap >= 0.0 && decisive_inlier_gap <= 1.0))
+    throw Error("decisive_inlier_gap must lie in [0, 1]");
   if (!(estimate_switch_ratio >= 1.0) || !std::isfinite(estimate_switch_ratio))
     throw Error("estimate_switch_ratio must be at least 1");
   if (!(hypothesis_min_weight > 0.0 && hypothesis_min_weight <= 1.0))
@@ -147,6 +149,7 @@ void ParticleFilter::start(std::size_t count) {
   trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
+  decisive_before_.clear();
   local_start_ = false;
   dominant_concentrated_ = false;
   covered_streak_ = 0;
@@ -355,6 +358,7 @@ FilterStep ParticleFilter::update(double time, const std::vector<Eigen::Vector3f
   step.updated = true;
   track_prediction_ = keeper_.active() ? std::optional<Pose>(keeper_.predict(delta)) : std::nullopt;
   estimate_prediction_ = estimate_placed_ ? std::optional<Pose>(last_estimate_pose_ * delta) : std::nullopt;
+  update_delta_ = delta;
   Stopwatch t0;
   predict(n, delta, motion_.elapsed(time));
   step.timings.motion_ms = t0.ms();

@@ -227,8 +227,11 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   const double scale = params_.hypothesis_evidence_points <= 0.0 ? per_point
                        : ever_concentrated_                      ? params_.hypothesis_evidence_points
                                             : std::min(params_.hypothesis_evidence_points, per_point);
-  for (double& e : evidence) e = scale * (e - best);
-  group_share_ = reweight_groups(prior_log_weight_.data(), post_log_weight_.data(), group_.data(), n, evidence);
+  std::vector<double> nats(evidence.size());
+  for (std::size_t k = 0; k < evidence.size(); ++k) nats[k] = scale * (evidence[k] - best);
+  // Before the first concentration a decisive view still turns the belief (FilterParameters::decisive_inlier_gap).
+  turn_on_decisive_views(n, h, places.pose, places.fit, evidence, waits, nats);
+  group_share_ = reweight_groups(prior_log_weight_.data(), post_log_weight_.data(), group_.data(), n, nats);
   const double max =
       *std::max_element(post_log_weight_.begin(), post_log_weight_.begin() + static_cast<std::ptrdiff_t>(n));
   for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(post_log_weight_[i] - max);
@@ -247,6 +250,49 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   step.concentrated = take_dominant_hypothesis(estimate_, params_.estimate);
   dominant_concentrated_ = step.concentrated;
   keep_estimate_place(step);
+}
+
+void ParticleFilter::turn_on_decisive_views(std::size_t n, const std::vector<Hypothesis>& h,
+                                            const std::vector<Pose>& poses, const std::vector<RayFit>& fit,
+                                            const std::vector<double>& evidence, const std::vector<bool>& waits,
+                                            std::vector<double>& nats) {
+  std::vector<std::pair<Pose, Pose>> decisive;
+  if (!ever_concentrated_ && params_.hypothesis_evidence_points > 0.0) {
+    const PoseEstimateOptions& o = params_.estimate;
+    std::vector<PlaceJudgement> judged(h.size());
+    for (std::size_t r = 0; r < h.size(); ++r) {
+      judged[r] = PlaceJudgement{h[r].std_position <= o.converged_std_xyz && h[r].std_rotation <= o.converged_std_angle,
+                                 waits[r], fit[r].coverage(), fit[r].inlier_ratio()};
+    }
+    std::size_t b = h.size();
+    const std::vector<std::size_t> beaten =
+        decisively_beaten(judged, evidence, params_.decisive_inlier_gap, kNearlyAllOfTheScan, b);
+    // Only a verdict the last update gave as well, between the same two places carried by the odometry: a place whose
+    // refined pose landed off for one update (rays through surfaces, 0.05 fewer inliers) loses a single update's
+    // verdict, and in the two-storey runs such single updates turned the belief between the storeys long before the
+    // staircase came into view.
+    const ConvergenceOptions& c = params_.convergence;
+    const auto same = [&](const Pose& before, const Pose& now) {
+      const Pose moved = before * update_delta_;
+      return (moved.translation() - now.translation()).norm() <= c.max_jump_m &&
+             rotation_angle_between(moved.linear(), now.linear()) <= c.max_jump_rad;
+    };
+    std::vector<std::size_t> repeated;
+    for (const std::size_t r : beaten) {
+      decisive.emplace_back(poses[b], poses[r]);
+      for (const auto& [best, worse] : decisive_before_) {
+        if (same(best, poses[b]) && same(worse, poses[r])) {
+          repeated.push_back(r);
+          break;
+        }
+      }
+    }
+    if (!repeated.empty()) {
+      turn_odds(b, repeated, evidence, group_log_sums(prior_log_weight_.data(), group_.data(), n, evidence.size()),
+                params_.hypothesis_evidence_points, 2.0 * std::log(params_.estimate_switch_ratio), nats);
+    }
+  }
+  decisive_before_.swap(decisive);
 }
 
 void ParticleFilter::keep_estimate_place(const FilterStep& step) {

@@ -220,6 +220,7 @@ void set_estimate(FilterParameters& f, const Values& v) {
   f.inlier_distance = static_cast<float>(v.number("inlier_distance"));
   f.recovery_min_inliers = v.number("recovery_min_inliers");
   f.hypothesis_evidence_points = v.number("hypothesis_evidence_points");
+  f.decisive_inlier_gap = v.number("decisive_inlier_gap");
   f.estimate_switch_ratio = v.number("estimate_switch_ratio");
   f.wall_tilt_information = v.number("wall_tilt_information");
   f.frontier_evidence = v.flag("frontier_evidence");

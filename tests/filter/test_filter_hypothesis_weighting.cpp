@@ -77,5 +77,77 @@ TEST(HypothesisWeighting, APlaceThatWaitsKeepsItsShareAgainstEveryPlace) {
   EXPECT_THROW(place_evidence(100.0, paired, waits, 0.0), Error);
 }
 
+TEST(HypothesisWeighting, ADecisiveViewNeedsTwoJudgesAFullMapAndCompactPlaces) {
+  // The two storeys of the two-storey VLP-16 handheld run at the staircase (measured): the true storey (place 0, the
+  // best judged) explains 0.98 of its observed points, the other 0.94; a third, spread place; the rest.
+  const PlaceJudgement storey{true, false, 0.97, 0.98};
+  const PlaceJudgement twin{true, false, 0.96, 0.94};
+  const PlaceJudgement spread{false, false, 0.97, 0.70};
+  const std::vector<double> evidence = {-0.80, -0.82, -1.50, -1.20};
+  const double gap = 0.03, covered = 0.9;
+  std::size_t best = 99;
+  EXPECT_EQ(decisively_beaten({storey, twin, spread}, evidence, gap, covered, best), std::vector<std::size_t>{1});
+  EXPECT_EQ(best, 0u);
+  // Each condition alone leaves no verdict: a gap under 0.03, a map that covers less of the scan at either place (a
+  // room the mapping run skipped), a place waiting at the frontier or spread, the raw fit disagreeing with the
+  // paired evidence (the place it favours is not the best judged).
+  const PlaceJudgement close{true, false, 0.96, 0.955};
+  PlaceJudgement skipped = storey;
+  skipped.coverage = 0.6;
+  PlaceJudgement waiting = twin;
+  waiting.waits = true;
+  PlaceJudgement wide = twin;
+  wide.compact = false;
+  for (const std::vector<PlaceJudgement>& places :
+       {std::vector<PlaceJudgement>{storey, close, spread}, std::vector<PlaceJudgement>{skipped, twin, spread},
+        std::vector<PlaceJudgement>{storey, waiting, spread}, std::vector<PlaceJudgement>{storey, wide, spread},
+        std::vector<PlaceJudgement>{twin, storey, spread}}) {
+    EXPECT_TRUE(decisively_beaten(places, evidence, gap, covered, best).empty());
+  }
+  // Nor where the rest is judged best (it has no pose to judge a fit at), or the rule is off.
+  EXPECT_TRUE(decisively_beaten({storey, twin, spread}, {-0.8, -0.82, -1.5, -0.5}, gap, covered, best).empty());
+  EXPECT_EQ(best, 3u);
+  EXPECT_TRUE(decisively_beaten({storey, twin, spread}, evidence, 0.0, covered, best).empty());
+  EXPECT_THROW(decisively_beaten({storey, twin}, evidence, gap, covered, best), Error);
+}
+
+TEST(HypothesisWeighting, ADecisiveViewTurnsTheOddsAndNoFurther) {
+  // The storeys above: the true one (0) holds 0.3 of the belief against 0.7 and beats the other decisively.
+  const std::vector<double> evidence = {-0.80, -0.82, -1.50, -1.20};
+  const std::vector<double> prior = {std::log(0.3), std::log(0.7), std::log(1e-3), std::log(1e-3)};
+  const double tempered = 4.0, full = 64.0;
+  const double turn = 2.0 * std::log(1.2);  // the estimate's switch ratio, squared
+  const auto ordinary = [&](const std::vector<double>& e) {
+    std::vector<double> nats;
+    for (double v : e) nats.push_back(tempered * (v - e[0]));
+    return nats;
+  };
+  std::vector<double> nats = ordinary(evidence);
+  turn_odds(0, {1}, evidence, prior, full, turn, nats);
+  // In full the twin would lose 1.28 nats; 1.21 turn the odds to 1.44 : 1, and no more is taken.
+  EXPECT_NEAR(nats[1], std::log(0.3) - std::log(0.7) - turn, 1e-12);
+  const std::vector<double> untouched = ordinary(evidence);
+  EXPECT_EQ(nats[0], untouched[0]);
+  EXPECT_EQ(nats[2], untouched[2]);
+  EXPECT_EQ(nats[3], untouched[3]);
+  const std::vector<std::int32_t> group = {0, 1, 2, 3};
+  std::vector<double> post = prior;
+  const std::vector<double> share = reweight_groups(prior.data(), post.data(), group.data(), 4, nats);
+  EXPECT_NEAR(share[0] / share[1], 1.44, 1e-9);
+  // Where the count in full turns less, it is all taken.
+  std::vector<double> small = evidence;
+  small[1] = -0.81;
+  nats = ordinary(small);
+  turn_odds(0, {1}, small, prior, full, turn, nats);
+  EXPECT_NEAR(nats[1], full * -0.01, 1e-12);
+  // A place already turned past the odds keeps the ordinary count: the view does not concentrate the belief.
+  const std::vector<double> leading = {std::log(0.8), std::log(0.2), std::log(1e-3), std::log(1e-3)};
+  nats = ordinary(evidence);
+  turn_odds(0, {1}, evidence, leading, full, turn, nats);
+  EXPECT_EQ(nats, ordinary(evidence));
+  EXPECT_THROW(turn_odds(0, {0}, evidence, prior, full, turn, nats), Error);
+  EXPECT_THROW(turn_odds(3, {1}, evidence, prior, full, turn, nats), Error);
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

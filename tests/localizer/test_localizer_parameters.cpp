@@ -58,6 +58,7 @@ TEST(LocalizerParameters, EveryNameOnceInAKnownGroupAndTheDefaultsAreTheLibrarys
   EXPECT_DOUBLE_EQ(o.filter.update_min_a, f.update_min_a);
   EXPECT_DOUBLE_EQ(o.filter.wall_tilt_information, f.wall_tilt_information);
   EXPECT_DOUBLE_EQ(o.filter.see_through_weight, f.see_through_weight);
+  EXPECT_DOUBLE_EQ(o.filter.decisive_inlier_gap, f.decisive_inlier_gap);
   EXPECT_EQ(o.preprocessing.max_beams, ScanPreprocessing{}.max_beams);
   EXPECT_FALSE(o.initial_pose.has_value());
   EXPECT_TRUE(o.use_imu);
@@ -71,6 +72,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
                                                      {"update_min_a", "10deg"},
                                                      {"wall_tilt_information", "0"},
                                                      {"see_through_weight", "0.5"},
+                                                     {"decisive_inlier_gap", "0"},
                                                      {"init", "initial_pose"},
                                                      {"initial_pose.x", "2"},
                                                      {"initial_pose.yaw", "90deg"}});
@@ -81,6 +83,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
   EXPECT_NEAR(o.filter.update_min_a, 10.0 * M_PI / 180.0, 1e-12);
   EXPECT_EQ(o.filter.wall_tilt_information, 0.0);
   EXPECT_EQ(o.filter.see_through_weight, 0.5);
+  EXPECT_EQ(o.filter.decisive_inlier_gap, 0.0);
   ASSERT_TRUE(o.initial_pose.has_value());
   EXPECT_NEAR(o.initial_pose->translation().x(), 2.0, 1e-12);
   EXPECT_NEAR(yaw_of(*o.initial_pose), M_PI / 2, 1e-9);

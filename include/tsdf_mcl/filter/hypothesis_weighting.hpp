@@ -30,6 +30,33 @@ std::vector<double> reweight_groups(const double* prior, double* post, const std
 std::vector<double> place_evidence(double reference_total, const std::vector<double>& paired,
                                    const std::vector<bool>& waits, double points);
 
+// What a verdict between two places rests on (decisively_beaten): one place's fit at its pose refined onto the map.
+struct PlaceJudgement {
+  bool compact = false;       // its particles spread within the convergence test's limits
+  bool waits = false;         // its evidence waits at the frontier of unmapped space (place_evidence)
+  double coverage = 0.0;      // share of the scan with map evidence (scan_fit.hpp: RayFit::coverage)
+  double inlier_ratio = 0.0;  // share of those points within the inlier distance of a surface
+};
+
+// The places that the best-judged place beats decisively (weigh_hypotheses, before the belief first concentrates),
+// and in `best` that place (places.size() where none). The best-judged place is the one with the highest `evidence`
+// (per point, one per place and then the rest's), if the rest's is no higher; decisive: both compact, neither
+// waiting, the map covering at least `min_coverage` of the scan at both, and the best's inlier ratio higher by at
+// least `gap`. Two judges agree there, the paired evidence and the raw fit. gap <= 0: none.
+std::vector<std::size_t> decisively_beaten(const std::vector<PlaceJudgement>& places,
+                                           const std::vector<double>& evidence, double gap, double min_coverage,
+                                           std::size_t& best);
+
+// Against each of the `beaten` places, a scan counts as up to `full` points instead of what `nats` holds (each place's
+// evidence as reweight_groups takes it, then the rest's; `evidence` the same per point before scaling): as much as
+// turns the odds of the `best` place over it (from `prior_log_share`, one per place and then the rest's) to
+// `turn_log_odds`, never beyond and never less than `nats` held. The estimate follows (estimate_switch_ratio); only
+// the ordinary count concentrates the belief, on which the claim and the look-alike memory's proof wait
+// (docs/filter.md, "A decisive view turns the estimate").
+void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const std::vector<double>& evidence,
+               const std::vector<double>& prior_log_share, double full, double turn_log_odds,
+               std::vector<double>& nats);
+
 // log sum exp of v over each group's particles (groups entries, -inf for an empty group).
 std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups);
 

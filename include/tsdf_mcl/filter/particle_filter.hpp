@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "tsdf_mcl/filter/convergence.hpp"
@@ -130,6 +131,17 @@ struct FilterParameters {
   // scans after its first sight, 5-11 at 16 (docs/filter.md, "A scan between places counts as 64 points"). The
   // look-alike memory (look_alikes.hpp) sums its evidence in the same units.
   double hypothesis_evidence_points = 64.0;
+  // Before the belief first concentrates, a decisive view still turns it: against a place that the best-judged one
+  // beats decisively on two updates in a row, a scan counts as up to hypothesis_evidence_points, as far as it turns
+  // the two places' odds to estimate_switch_ratio squared (the estimate follows) and no further
+  // (hypothesis_weighting.hpp: decisively_beaten, turn_odds). Decisive: both places compact, the map covering nearly
+  // all of the scan at both, and the best-judged place explaining at least this much more of its observed points
+  // (inlier ratio), so that the paired evidence and the raw fit agree. With the tempering's count alone a two-storey
+  // run turned 48 scans after the staircase came into view (24 with this). Counted in full with no cap, a view before
+  // the staircase concentrated a belief, and the look-alike memory then proved the wrong storey on the map's residue;
+  // on single updates, a place's refined pose that landed off turned the estimate (docs/filter.md, "A decisive view
+  // turns the estimate"). 0 = off.
+  double decisive_inlier_gap = 0.03;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
   // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
   // cloud (weigh_track_on_evidence), unless this is set.
@@ -323,6 +335,11 @@ class ParticleFilter {
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
+  // Turns `nats` (weigh_hypotheses: each place's evidence, then the rest's) against the places beaten decisively on
+  // this update and the last (FilterParameters::decisive_inlier_gap), before the belief first concentrates.
+  void turn_on_decisive_views(std::size_t n, const std::vector<Hypothesis>& h, const std::vector<Pose>& poses,
+                              const std::vector<RayFit>& fit, const std::vector<double>& evidence,
+                              const std::vector<bool>& waits, std::vector<double>& nats);
   // The estimate from the place it reported last, where the heaviest place does not hold estimate_switch_ratio
   // times its share.
   void keep_estimate_place(const FilterStep& step);
@@ -440,6 +457,10 @@ class ParticleFilter {
   bool local_start_ = false;        // initialized at a given pose (initialize_local), no wrong lock left since
   // Most of the scan: the map coverage at which the fit judges a place (map_judges_track, weigh_hypotheses).
   static constexpr double kMostOfTheScan = 0.75;
+  // Nearly all of the scan: the map coverage at both places for a decisive view between them (weigh_hypotheses). In
+  // the symmetric-skip runs, of the 58 updates where the mirror wing explained 0.02 more of the scan than the true
+  // wing with most of the scan covered at both, 7 had this much at both (docs/filter.md, "A decisive view ...").
+  static constexpr double kNearlyAllOfTheScan = 0.9;
   // A place lying mostly in unobserved space whose observed points fit at least this well is at the frontier of
   // unmapped space (weigh_hypotheses); measured: 0.83-0.95 in the skipped rooms of the matrix's *-skip scenes.
   static constexpr double kFrontierMinInliers = 0.8;
@@ -458,6 +479,9 @@ class ParticleFilter {
   std::optional<Pose> track_prediction_;  // this update: where the odometry carries the kept track, if any
   // This update: where the odometry carries the last reported estimate, once there is one.
   std::optional<Pose> estimate_prediction_;
+  Pose update_delta_ = Pose::Identity();  // this update's motion (odometry or IMU)
+  // The last update's decisive verdicts (turn_on_decisive_views): the best-judged place's pose and the beaten one's.
+  std::vector<std::pair<Pose, Pose>> decisive_before_;
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update
