@@ -6,6 +6,11 @@
 
 namespace tsdf_mcl {
 
+bool ConvergenceOptions::same_place(const Pose& a, const Pose& b) const {
+  return (a.translation() - b.translation()).norm() <= max_jump_m &&
+         rotation_angle_between(a.linear(), b.linear()) <= max_jump_rad;
+}
+
 void ConvergenceOptions::validate() const {
   if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0)) throw Error("converged_min_inliers must lie in [0, 1]");
   if (!(min_coverage >= 0.0 && min_coverage <= 1.0)) throw Error("converged_min_coverage must lie in [0, 1]");
@@ -42,8 +47,7 @@ bool ConvergenceMonitor::challenged(const PoseEstimate& e) const {
   const Hypothesis& top = e.hypotheses.front();
   for (std::size_t k = 1; k < e.hypotheses.size(); ++k) {
     const Hypothesis& h = e.hypotheses[k];
-    const bool elsewhere = (h.pose.translation() - top.pose.translation()).norm() > options_.max_jump_m ||
-                           rotation_angle_between(h.pose.linear(), top.pose.linear()) > options_.max_jump_rad;
+    const bool elsewhere = !options_.same_place(h.pose, top.pose);
     if (elsewhere && h.weight >= options_.competitor_min_weight &&
         explained_share(h) >= explained_share(top) - options_.competitor_margin) {
       return true;
@@ -57,8 +61,7 @@ bool ConvergenceMonitor::update(const PoseEstimate& e, bool concentrated, const 
   // A NaN coverage (not computed) does not hold convergence back.
   const bool plausible = e.inlier_ratio >= options_.min_inlier_ratio && !(e.coverage < options_.min_coverage);
   const Pose predicted = last_ * motion;
-  const bool same_place = (predicted.translation() - e.pose.translation()).norm() <= options_.max_jump_m &&
-                          rotation_angle_between(predicted.linear(), e.pose.linear()) <= options_.max_jump_rad;
+  const bool same_place = options_.same_place(predicted, e.pose);
   // A change of mind: the dominant hypothesis left a place the filter had converged at, or had concentrated on
   // (an operator's initial pose, a lock the background search then outscored).
   if ((converged_once_ || concentrated_before_) && !same_place) {

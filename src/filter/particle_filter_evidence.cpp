@@ -258,11 +258,9 @@ void ParticleFilter::turn_on_decisive_views(std::size_t n, const std::vector<Hyp
                                             std::vector<double>& nats) {
   std::vector<std::pair<Pose, Pose>> decisive;
   if (!ever_concentrated_ && params_.hypothesis_evidence_points > 0.0) {
-    const PoseEstimateOptions& o = params_.estimate;
     std::vector<PlaceJudgement> judged(h.size());
     for (std::size_t r = 0; r < h.size(); ++r) {
-      judged[r] = PlaceJudgement{h[r].std_position <= o.converged_std_xyz && h[r].std_rotation <= o.converged_std_angle,
-                                 waits[r], fit[r].coverage(), fit[r].inlier_ratio()};
+      judged[r] = PlaceJudgement{compact(h[r], params_.estimate), waits[r], fit[r].coverage(), fit[r].inlier_ratio()};
     }
     std::size_t b = h.size();
     const std::vector<std::size_t> beaten =
@@ -271,11 +269,8 @@ void ParticleFilter::turn_on_decisive_views(std::size_t n, const std::vector<Hyp
     // refined pose landed off for one update (rays through surfaces, 0.05 fewer inliers) loses a single update's
     // verdict, and in the two-storey runs such single updates turned the belief between the storeys long before the
     // staircase came into view.
-    const ConvergenceOptions& c = params_.convergence;
     const auto same = [&](const Pose& before, const Pose& now) {
-      const Pose moved = before * update_delta_;
-      return (moved.translation() - now.translation()).norm() <= c.max_jump_m &&
-             rotation_angle_between(moved.linear(), now.linear()) <= c.max_jump_rad;
+      return params_.convergence.same_place(before * update_delta_, now);
     };
     std::vector<std::size_t> repeated;
     for (const std::size_t r : beaten) {
@@ -307,9 +302,7 @@ void ParticleFilter::keep_estimate_place(const FilterStep& step) {
 bool ParticleFilter::at_frontier(const RayFit& fit, const Pose& pose) const {
   if (!mapped_track_ || !(fit.coverage() < kMostOfTheScan)) return false;
   if (fit.inlier_ratio() >= kFrontierMinInliers) return true;
-  const ConvergenceOptions& c = params_.convergence;
-  return track_prediction_ && (pose.translation() - track_prediction_->translation()).norm() <= c.max_jump_m &&
-         rotation_angle_between(pose.linear(), track_prediction_->linear()) <= c.max_jump_rad;
+  return track_prediction_ && params_.convergence.same_place(pose, *track_prediction_);
 }
 
 double ParticleFilter::rest_evidence(std::size_t n, std::size_t groups, double points) {
@@ -384,7 +377,7 @@ std::vector<Pose> ParticleFilter::evidence_centres(const Pose& delta, double rea
   // on a third of balm's scan up to `reach`, the tracked cloud stayed wide: KLD-sampling kept a median of 4,400
   // particles, where 3,400 followed the cloud otherwise).
   const double spread = std::min(reach, params_.estimate.converged_std_xyz);
-  const auto compact = [&](double std_position, double std_rotation) {
+  const auto within_spread = [&](double std_position, double std_rotation) {
     return std_position <= spread && std_rotation <= params_.estimate.converged_std_angle;
   };
   const auto add = [&](const Pose& pose) {
@@ -394,10 +387,10 @@ std::vector<Pose> ParticleFilter::evidence_centres(const Pose& delta, double rea
     centres.push_back(pose);
   };
   double compact_weight = 0.0;
-  if (compact(estimate_.std_position, estimate_.std_rotation)) add(last_estimate_pose_ * delta);
+  if (within_spread(estimate_.std_position, estimate_.std_rotation)) add(last_estimate_pose_ * delta);
   for (const Hypothesis& h : estimate_.hypotheses) {
     if (centres.size() >= kMaxEvidencePlaces) break;
-    if (!compact(h.std_position, h.std_rotation)) continue;
+    if (!within_spread(h.std_position, h.std_rotation)) continue;
     compact_weight += h.weight;
     add(h.pose * delta);
   }
@@ -578,8 +571,7 @@ void ParticleFilter::keep_track(const Pose& delta, double dt, const std::vector<
   const WallTilt walls = walls_at(predicted);
   const Pose continuation = refine_pose(map_, predicted, points, 6, &walls);
   const ConvergenceOptions& c = params_.convergence;
-  const bool continues = (top.pose.translation() - continuation.translation()).norm() <= c.max_jump_m &&
-                         rotation_angle_between(top.pose.linear(), continuation.linear()) <= c.max_jump_rad;
+  const bool continues = c.same_place(top.pose, continuation);
   track_followed_ = continues;
   double evidence = 0.0;
   bool track_implausible = false;

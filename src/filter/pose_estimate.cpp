@@ -278,8 +278,7 @@ bool take_hypothesis(PoseEstimate& e, std::size_t index, const PoseEstimateOptio
   e.inlier_ratio = top.inlier_ratio;
   e.see_through_ratio = top.see_through_ratio;
   e.coverage = top.coverage;
-  return top.weight >= o.converged_weight && top.std_position <= o.converged_std_xyz &&
-         top.std_rotation <= o.converged_std_angle;
+  return top.weight >= o.converged_weight && compact(top, o);
 }
 
 std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,

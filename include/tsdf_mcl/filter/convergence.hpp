@@ -47,6 +47,8 @@ struct ConvergenceOptions {
   // much and still count as the same place.
   double max_jump_m = 0.5;
   double max_jump_rad = 0.35;
+  // Whether two poses are one place: within max_jump_m and max_jump_rad of each other.
+  bool same_place(const Pose& a, const Pose& b) const;
   // Travel (odometry translation, m) the dominant hypothesis must hold after a jump away from a converged track
   // or after a wrong lock was found out.
   double travel_after_jump_m = 5.0;

@@ -65,6 +65,11 @@ struct Hypothesis {
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();
 };
 
+// Whether a hypothesis is compact: its spreads within converged_std_xyz and converged_std_angle.
+inline bool compact(const Hypothesis& h, const PoseEstimateOptions& o) {
+  return h.std_position <= o.converged_std_xyz && h.std_rotation <= o.converged_std_angle;
+}
+
 // explained_share of a hypothesis at its pose.
 inline double explained_share(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
 
