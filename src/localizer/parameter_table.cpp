@@ -282,7 +282,8 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
       {"decisive_inlier_gap", "G", num(f.decisive_inlier_gap),
        "before the belief first concentrates, a scan counts as up to hypothesis_evidence_points against a compact "
        "place where the map covers nearly all of the scan and the best place explains at least this much more of "
-       "it, as far as it turns the estimate and no further (0 = off: as few points as the tempering lets)",
+       "it on two updates in a row, as far as it turns the estimate and no further (0 = off: as few points as the "
+       "tempering lets)",
        kAdvanced},
       {"frontier_evidence", "", "",
        "let points at the frontier of the map's observed space (within a truncation length of space it never "
