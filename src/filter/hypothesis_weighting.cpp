@@ -78,6 +78,34 @@ void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const s
   }
 }
 
+std::size_t even_tied_places(const std::vector<PlaceJudgement>& places, double gap, double min_coverage,
+                             const std::vector<double>& prior_log_share, std::vector<double>& nats) {
+  if (prior_log_share.size() != places.size() + 1 || nats.size() != places.size() + 1)
+    throw Error("hypothesis weighting: one share and count per place and the rest");
+  if (!(gap > 0.0)) return 0;
+  const auto judged = [&](std::size_t r) {
+    const PlaceJudgement& p = places[r];
+    return p.compact && !p.waits && p.coverage >= min_coverage && std::isfinite(prior_log_share[r]);
+  };
+  double best = -1.0;
+  for (std::size_t r = 0; r < places.size(); ++r) {
+    if (judged(r)) best = std::max(best, places[r].inlier_ratio);
+  }
+  std::vector<std::size_t> tied;
+  double max = kMinusInf;
+  for (std::size_t r = 0; r < places.size(); ++r) {
+    if (!judged(r) || best - places[r].inlier_ratio >= gap) continue;
+    tied.push_back(r);
+    max = std::max(max, prior_log_share[r] + nats[r]);
+  }
+  if (tied.size() < 2) return 0;
+  double sum = 0.0;
+  for (const std::size_t r : tied) sum += std::exp(prior_log_share[r] + nats[r] - max);
+  const double each = max + std::log(sum / static_cast<double>(tied.size()));
+  for (const std::size_t r : tied) nats[r] = each - prior_log_share[r];
+  return tied.size();
+}
+
 std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
                                     const std::vector<double>& evidence) {
   const std::size_t groups = evidence.size();

@@ -80,9 +80,13 @@ void known_endpoints(const TsdfMap& map, const Pose& pose, const std::vector<Eig
 // Refines every hypothesis onto the map from its mean pose and from its heaviest particle: a mode's mean sits off
 // its place while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps
 // from there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
-// The better start wins, judged on the points that end in observed space at both (ties: the mean).
+// And from the place the last update refined nearest to it, carried by the odometry (`carried`, each within `near` of
+// the mean or the heaviest particle): where both of those landed off (rays through surfaces), the same place's pose a
+// step earlier did not, and such updates walked the odds between two storeys before the staircase came into view.
+// The best start wins, judged on the points that end in observed space at both (ties: the earlier start).
 Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
-                     const std::vector<std::size_t>& heaviest, std::size_t n,
+                     const std::vector<std::size_t>& heaviest, const std::vector<Pose>& carried,
+                     const std::function<bool(const Pose&, const Pose&)>& near, std::size_t n,
                      const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance,
                      float frontier_reach, double dead_band, const std::function<WallTilt(const Pose&)>& walls_at) {
   struct Start {
@@ -103,9 +107,11 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
       best.translation() = particles.position(heaviest[r]).cast<double>();
       starts.push_back(Start{r, best, kNone, {}, walls_at(best), {}});
     }
+    const std::size_t k = nearest_place(carried, starts.back().pose, h[r].pose, near);
+    if (k < carried.size()) starts.push_back(Start{r, carried[k], kNone, {}, walls_at(carried[k]), {}});
   }
   // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
-  // of two starts each keep sixteen cores busy.
+  // of two or three starts each keep sixteen cores busy.
 #pragma omp parallel for schedule(dynamic)
   for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
     Start& s = starts[static_cast<std::size_t>(ss)];
@@ -154,6 +160,16 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
   return places;
 }
 
+// What a verdict between the places rests on: each one's spread and its fit at its refined pose.
+std::vector<PlaceJudgement> place_judgements(const std::vector<Hypothesis>& h, const std::vector<RayFit>& fit,
+                                             const std::vector<bool>& waits, const PoseEstimateOptions& options) {
+  std::vector<PlaceJudgement> judged(h.size());
+  for (std::size_t r = 0; r < h.size(); ++r) {
+    judged[r] = PlaceJudgement{compact(h[r], options), waits[r], fit[r].coverage(), fit[r].inlier_ratio()};
+  }
+  return judged;
+}
+
 }  // namespace
 
 void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
@@ -172,10 +188,14 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
-  Places places =
-      refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
-                    points, plain, params_.inlier_distance, frontier_reach(), evidence_dead_band(),
-                    [this](const Pose& pose) { return walls_at(pose); });
+  std::vector<Pose> carried;
+  for (const Pose& before : places_before_) carried.push_back(before * update_delta_);
+  Places places = refine_places(
+      map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), carried,
+      [this](const Pose& a, const Pose& b) { return params_.convergence.same_place(a, b); }, n, points, plain,
+      params_.inlier_distance, frontier_reach(), evidence_dead_band(),
+      [this](const Pose& pose) { return walls_at(pose); });
+  places_before_ = places.pose;
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres
@@ -229,7 +249,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
                                             : std::min(params_.hypothesis_evidence_points, per_point);
   std::vector<double> nats(evidence.size());
   for (std::size_t k = 0; k < evidence.size(); ++k) nats[k] = scale * (evidence[k] - best);
-  // Before the first concentration a decisive view still turns the belief (FilterParameters::decisive_inlier_gap).
+  // As the places are named, tied ones start equal (FilterParameters::even_tied_places); before the first
+  // concentration a decisive view still turns the belief (FilterParameters::decisive_inlier_gap).
+  even_places_as_named(n, h, places.fit, waits, nats);
   turn_on_decisive_views(n, h, places.pose, places.fit, evidence, waits, nats);
   group_share_ = reweight_groups(prior_log_weight_.data(), post_log_weight_.data(), group_.data(), n, nats);
   const double max =
@@ -244,6 +266,9 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
     h[r].coverage = places.fit[r].coverage();
     h[r].see_through_ratio = places.fit[r].see_through_ratio();
   }
+  double compact_share = 0.0;
+  for (const Hypothesis& x : h) compact_share += compact(x, params_.estimate) ? x.weight : 0.0;
+  places_named_ = places_named_ || compact_share >= params_.estimate.converged_weight;
   rank_hypotheses(n, h, places.point_log, places.observed, rest);
   covered_streak_ = h.front().coverage >= kMostOfTheScan ? covered_streak_ + 1 : 0;
   mapped_track_ = mapped_track_ || covered_streak_ >= kMappedTrackUpdates;
@@ -252,19 +277,27 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   keep_estimate_place(step);
 }
 
+void ParticleFilter::even_places_as_named(std::size_t n, const std::vector<Hypothesis>& h,
+                                          const std::vector<RayFit>& fit, const std::vector<bool>& waits,
+                                          std::vector<double>& nats) {
+  // A local start's place is the operator's; once the belief has concentrated, its shares are evidence.
+  if (!params_.even_tied_places || places_named_ || ever_concentrated_ || local_start_ ||
+      params_.hypothesis_evidence_points <= 0.0)
+    return;
+  even_tied_places(place_judgements(h, fit, waits, params_.estimate), params_.decisive_inlier_gap, kNearlyAllOfTheScan,
+                   group_log_sums(prior_log_weight_.data(), group_.data(), n, nats.size()), nats);
+}
+
 void ParticleFilter::turn_on_decisive_views(std::size_t n, const std::vector<Hypothesis>& h,
                                             const std::vector<Pose>& poses, const std::vector<RayFit>& fit,
                                             const std::vector<double>& evidence, const std::vector<bool>& waits,
                                             std::vector<double>& nats) {
   std::vector<std::pair<Pose, Pose>> decisive;
   if (!ever_concentrated_ && params_.hypothesis_evidence_points > 0.0) {
-    std::vector<PlaceJudgement> judged(h.size());
-    for (std::size_t r = 0; r < h.size(); ++r) {
-      judged[r] = PlaceJudgement{compact(h[r], params_.estimate), waits[r], fit[r].coverage(), fit[r].inlier_ratio()};
-    }
     std::size_t b = h.size();
     const std::vector<std::size_t> beaten =
-        decisively_beaten(judged, evidence, params_.decisive_inlier_gap, kNearlyAllOfTheScan, b);
+        decisively_beaten(place_judgements(h, fit, waits, params_.estimate), evidence, params_.decisive_inlier_gap,
+                          kNearlyAllOfTheScan, b);
     // Only a verdict the last update gave as well, between the same two places carried by the odometry: a place whose
     // refined pose landed off for one update (rays through surfaces, 0.05 fewer inliers) loses a single update's
     // verdict, and in the two-storey runs such single updates turned the belief between the storeys long before the

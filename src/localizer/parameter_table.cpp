@@ -285,6 +285,11 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        "it on two updates in a row, as far as it turns the estimate and no further (0 = off: as few points as the "
        "tempering lets)",
        kAdvanced},
+      {"even_tied_places", "", "",
+       "as a global search first names its places, start the places tied with the best fit at equal shares, "
+       "whatever its particles held there (for buildings of identical units; off: the particles' shares, which "
+       "also hold what the places' fits do not show)",
+       kAdvanced},
       {"frontier_evidence", "", "",
        "let points at the frontier of the map's observed space (within a truncation length of space it never "
        "observed) count as evidence between places and between a concentrated cloud's particles (off: they do not)",

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "tsdf_mcl/core/error.hpp"
@@ -147,6 +148,48 @@ TEST(HypothesisWeighting, ADecisiveViewTurnsTheOddsAndNoFurther) {
   EXPECT_EQ(nats, ordinary(evidence));
   EXPECT_THROW(turn_odds(0, {0}, evidence, prior, full, turn, nats), Error);
   EXPECT_THROW(turn_odds(3, {1}, evidence, prior, full, turn, nats), Error);
+}
+
+TEST(HypothesisWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
+  // Two identical wings (0, 1) that a uniform start's guesses found 2 : 1, a look-alike 0.05 worse (2), one the map
+  // hardly covers (3), a spread mode (4), then the rest.
+  const std::vector<PlaceJudgement> places = {{true, false, 0.98, 1.00},
+                                              {true, false, 0.97, 0.99},
+                                              {true, false, 0.96, 0.95},
+                                              {true, false, 0.60, 1.00},
+                                              {false, false, 0.99, 1.00}};
+  const std::vector<double> prior = {std::log(0.4), std::log(0.2), std::log(0.1),
+                                     std::log(0.1), std::log(0.1), std::log(0.1)};
+  const std::vector<double> ordinary = {0.0, -0.01, -0.3, 0.0, -0.02, -0.1};
+  std::vector<double> nats = ordinary;
+  EXPECT_EQ(even_tied_places(places, 0.03, 0.9, prior, nats), 2u);
+  const std::vector<std::int32_t> group = {0, 1, 2, 3, 4, 5};
+  std::vector<double> post = prior;
+  const std::vector<double> share = reweight_groups(prior.data(), post.data(), group.data(), 6, nats);
+  std::vector<double> post_ordinary = prior;
+  const std::vector<double> before = reweight_groups(prior.data(), post_ordinary.data(), group.data(), 6, ordinary);
+  EXPECT_NEAR(share[0], share[1], 1e-12);
+  EXPECT_NEAR(share[0] + share[1], before[0] + before[1], 1e-12);  // their sum kept, and every other share
+  for (std::size_t g = 2; g < 6; ++g) EXPECT_NEAR(share[g], before[g], 1e-12) << g;
+  // A third place within the gap joins them; a place the best beats decisively keeps its share.
+  std::vector<PlaceJudgement> three = places;
+  three[2].inlier_ratio = 0.975;
+  nats = ordinary;
+  EXPECT_EQ(even_tied_places(three, 0.03, 0.9, prior, nats), 3u);
+  EXPECT_NEAR(prior[1] + nats[1], prior[2] + nats[2], 1e-12);
+  // A waiting place is not judged; alone with its twin the best has no tie; gap 0 evens nothing.
+  std::vector<PlaceJudgement> waiting = places;
+  waiting[1].waits = true;
+  nats = ordinary;
+  EXPECT_EQ(even_tied_places(waiting, 0.03, 0.9, prior, nats), 0u);
+  EXPECT_EQ(nats, ordinary);
+  EXPECT_EQ(even_tied_places(places, 0.0, 0.9, prior, nats), 0u);
+  EXPECT_EQ(nats, ordinary);
+  // An empty group is no place to even.
+  std::vector<double> empty = prior;
+  empty[1] = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(even_tied_places(places, 0.03, 0.9, empty, nats), 0u);
+  EXPECT_THROW(even_tied_places(places, 0.03, 0.9, {0.0}, nats), Error);
 }
 
 }  // namespace

@@ -57,6 +57,17 @@ void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const s
                const std::vector<double>& prior_log_share, double full, double turn_log_odds,
                std::vector<double>& nats);
 
+// As a global search first names its places, the places tied with the best fit start equal: shifts `nats` (each
+// place's, then the rest's) so that the tied places' shares after the update (from `prior_log_share`, one per place and
+// then the rest's) become equal, their sum and every other share kept. Tied: judged as decisively_beaten judges
+// (compact, not waiting, the map covering at least `min_coverage` of the scan) and explaining within `gap` as much as
+// the best judged place (inlier ratio), so that no view between them is decisive. Between identical places what the
+// particles held is how many of the uniform start's guesses landed near each, not evidence; where the places differ in
+// what the map never observed it is evidence too (FilterParameters::even_tied_places; docs/filter.md, "Tied places
+// start equal: measured, kept off"). Returns how many places it evened (0, or 2 and more). gap <= 0: none.
+std::size_t even_tied_places(const std::vector<PlaceJudgement>& places, double gap, double min_coverage,
+                             const std::vector<double>& prior_log_share, std::vector<double>& nats);
+
 // log sum exp of v over each group's particles (groups entries, -inf for an empty group).
 std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups);
 

@@ -142,6 +142,15 @@ struct FilterParameters {
   // on single updates, a place's refined pose that landed off turned the estimate (docs/filter.md, "A decisive view
   // turns the estimate"). 0 = off.
   double decisive_inlier_gap = 0.03;
+  // As a global search first names its places (until compact places hold converged_weight of the belief), places
+  // tied with the best fit (within decisive_inlier_gap) start with equal shares, whatever the particles held there
+  // (hypothesis_weighting.hpp: even_tied_places). For buildings of identical units (storeys of one plan, mirrored
+  // wings): a handful of the uniform start's guesses land near each place, and a 2 : 1 split between two identical
+  // wings stood until a landmark came into view, which then needed 12-18 scans to turn it. Off by default: where the
+  // units differ in what the map never observed (a room the mapping run skipped), the particles' shares held real
+  // evidence that the places' fits do not show, and levelling them lost four right tracks of twelve at the skipped
+  // room (docs/filter.md, "Tied places start equal: measured, kept off").
+  bool even_tied_places = false;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
   // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
   // cloud (weigh_track_on_evidence), unless this is set.
@@ -337,6 +346,10 @@ class ParticleFilter {
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
   // Turns `nats` (weigh_hypotheses: each place's evidence, then the rest's) against the places beaten decisively on
   // this update and the last (FilterParameters::decisive_inlier_gap), before the belief first concentrates.
+  // Evens `nats` between the places tied with the best fit (FilterParameters::even_tied_places) until the places are
+  // named: compact places holding converged_weight of the belief.
+  void even_places_as_named(std::size_t n, const std::vector<Hypothesis>& h, const std::vector<RayFit>& fit,
+                            const std::vector<bool>& waits, std::vector<double>& nats);
   void turn_on_decisive_views(std::size_t n, const std::vector<Hypothesis>& h, const std::vector<Pose>& poses,
                               const std::vector<RayFit>& fit, const std::vector<double>& evidence,
                               const std::vector<bool>& waits, std::vector<double>& nats);
@@ -454,6 +467,7 @@ class ParticleFilter {
   std::size_t injected_end_ = 0;
   bool ever_converged_ = false;     // since the last initialization or re-spread
   bool ever_concentrated_ = false;  // likewise
+  bool places_named_ = false;       // likewise: compact places have held converged_weight of the belief
   bool local_start_ = false;        // initialized at a given pose (initialize_local), no wrong lock left since
   // Most of the scan: the map coverage at which the fit judges a place (map_judges_track, weigh_hypotheses).
   static constexpr double kMostOfTheScan = 0.75;
@@ -482,6 +496,7 @@ class ParticleFilter {
   Pose update_delta_ = Pose::Identity();  // this update's motion (odometry or IMU)
   // The last update's decisive verdicts (turn_on_decisive_views): the best-judged place's pose and the beaten one's.
   std::vector<std::pair<Pose, Pose>> decisive_before_;
+  std::vector<Pose> places_before_;  // the last update's places, refined onto the map (weigh_hypotheses)
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update
