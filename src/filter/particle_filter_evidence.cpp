@@ -188,8 +188,13 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
+  // The last update's places as starts only in a global search, before the belief first concentrates: once there is
+  // a lock, a wrong one refined on from its own last pose crept to a plausible fit and was never questioned
+  // (GlobalSearch.AbandonsAForcedWrongLock); the track keeper carries a lock from there.
   std::vector<Pose> carried;
-  for (const Pose& before : places_before_) carried.push_back(before * update_delta_);
+  if (!local_start_ && !ever_concentrated_) {
+    for (const Pose& before : places_before_) carried.push_back(before * update_delta_);
+  }
   Places places = refine_places(
       map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), carried,
       [this](const Pose& a, const Pose& b) { return params_.convergence.same_place(a, b); }, n, points, plain,

@@ -63,8 +63,8 @@ void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const s
 // (compact, not waiting, the map covering at least `min_coverage` of the scan) and explaining within `gap` as much as
 // the best judged place (inlier ratio), so that no view between them is decisive. Between identical places what the
 // particles held is how many of the uniform start's guesses landed near each, not evidence; where the places differ in
-// what the map never observed it is evidence too (FilterParameters::even_tied_places; docs/filter.md, "Tied places
-// start equal: measured, kept off"). Returns how many places it evened (0, or 2 and more). gap <= 0: none.
+// what the map never observed it is evidence too (FilterParameters::even_tied_places; docs/filter.md, "A place's last
+// pose as a start; tied places started equal"). Returns how many places it evened (0, or 2 and more). gap <= 0: none.
 std::size_t even_tied_places(const std::vector<PlaceJudgement>& places, double gap, double min_coverage,
                              const std::vector<double>& prior_log_share, std::vector<double>& nats);
 

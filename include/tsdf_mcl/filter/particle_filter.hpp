@@ -148,8 +148,8 @@ struct FilterParameters {
   // wings): a handful of the uniform start's guesses land near each place, and a 2 : 1 split between two identical
   // wings stood until a landmark came into view, which then needed 12-18 scans to turn it. Off by default: where the
   // units differ in what the map never observed (a room the mapping run skipped), the particles' shares held real
-  // evidence that the places' fits do not show, and levelling them lost four right tracks of twelve at the skipped
-  // room (docs/filter.md, "Tied places start equal: measured, kept off").
+  // evidence that the places' fits do not show: levelled, five of twelve runs that had been right went to the skipped
+  // room's mapped twin (docs/filter.md, "A place's last pose as a start; tied places started equal").
   bool even_tied_places = false;
   // Points at the frontier of the map's observed space (within a truncation length of space it never observed,
   // scan_fit.hpp: drop_frontier_points) are no evidence between places, nor between the particles of a concentrated
@@ -344,12 +344,12 @@ class ParticleFilter {
   // The modes as hypotheses, each refined onto the map and weighed against the best-fitting one on the points
   // both observe (the between-hypothesis evidence moves the groups' shares); then ranked by their shares.
   void weigh_hypotheses(std::size_t n, const std::vector<Eigen::Vector3f>& points, FilterStep& step);
-  // Turns `nats` (weigh_hypotheses: each place's evidence, then the rest's) against the places beaten decisively on
-  // this update and the last (FilterParameters::decisive_inlier_gap), before the belief first concentrates.
   // Evens `nats` between the places tied with the best fit (FilterParameters::even_tied_places) until the places are
   // named: compact places holding converged_weight of the belief.
   void even_places_as_named(std::size_t n, const std::vector<Hypothesis>& h, const std::vector<RayFit>& fit,
                             const std::vector<bool>& waits, std::vector<double>& nats);
+  // Turns `nats` (weigh_hypotheses: each place's evidence, then the rest's) against the places beaten decisively on
+  // this update and the last (FilterParameters::decisive_inlier_gap), before the belief first concentrates.
   void turn_on_decisive_views(std::size_t n, const std::vector<Hypothesis>& h, const std::vector<Pose>& poses,
                               const std::vector<RayFit>& fit, const std::vector<double>& evidence,
                               const std::vector<bool>& waits, std::vector<double>& nats);
