@@ -151,7 +151,6 @@ void ParticleFilter::start(std::size_t count) {
   ever_concentrated_ = false;
   places_named_ = false;
   decisive_before_.clear();
-  places_before_.clear();
   local_start_ = false;
   dominant_concentrated_ = false;
   covered_streak_ = 0;

@@ -80,13 +80,9 @@ void known_endpoints(const TsdfMap& map, const Pose& pose, const std::vector<Eig
 // Refines every hypothesis onto the map from its mean pose and from its heaviest particle: a mode's mean sits off
 // its place while the mode is spread (a robot turning on the spot spreads its yaw), and a few Gauss-Newton steps
 // from there may not reach the place; judged at such a pose, the right room loses to its look-alike in one scan.
-// And from the place the last update refined nearest to it, carried by the odometry (`carried`, each within `near` of
-// the mean or the heaviest particle): where both of those landed off (rays through surfaces), the same place's pose a
-// step earlier did not, and such updates walked the odds between two storeys before the staircase came into view.
-// The best start wins, judged on the points that end in observed space at both (ties: the earlier start).
+// The better start wins, judged on the points that end in observed space at both (ties: the mean).
 Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const ParticleArrays& particles,
-                     const std::vector<std::size_t>& heaviest, const std::vector<Pose>& carried,
-                     const std::function<bool(const Pose&, const Pose&)>& near, std::size_t n,
+                     const std::vector<std::size_t>& heaviest, std::size_t n,
                      const std::vector<Eigen::Vector3f>& points, const EndpointModel& plain, float inlier_distance,
                      float frontier_reach, double dead_band, const std::function<WallTilt(const Pose&)>& walls_at) {
   struct Start {
@@ -107,11 +103,9 @@ Places refine_places(const TsdfMap& map, const std::vector<Hypothesis>& h, const
       best.translation() = particles.position(heaviest[r]).cast<double>();
       starts.push_back(Start{r, best, kNone, {}, walls_at(best), {}});
     }
-    const std::size_t k = nearest_place(carried, starts.back().pose, h[r].pose, near);
-    if (k < carried.size()) starts.push_back(Start{r, carried[k], kNone, {}, walls_at(carried[k]), {}});
   }
   // The refinements are independent (the map is read-only): one per thread and start, so that eight hypotheses
-  // of two or three starts each keep sixteen cores busy.
+  // of two starts each keep sixteen cores busy.
 #pragma omp parallel for schedule(dynamic)
   for (std::ptrdiff_t ss = 0; ss < static_cast<std::ptrdiff_t>(starts.size()); ++ss) {
     Start& s = starts[static_cast<std::size_t>(ss)];
@@ -188,19 +182,10 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   EndpointModel plain = params_.sensor;
   plain.weight_exponent = 1.0f;
   const auto count = static_cast<double>(points.size());
-  // The last update's places as starts only in a global search, before the belief first concentrates: once there is
-  // a lock, a wrong one refined on from its own last pose crept to a plausible fit and was never questioned
-  // (GlobalSearch.AbandonsAForcedWrongLock); the track keeper carries a lock from there.
-  std::vector<Pose> carried;
-  if (!local_start_ && !ever_concentrated_) {
-    for (const Pose& before : places_before_) carried.push_back(before * update_delta_);
-  }
-  Places places = refine_places(
-      map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), carried,
-      [this](const Pose& a, const Pose& b) { return params_.convergence.same_place(a, b); }, n, points, plain,
-      params_.inlier_distance, frontier_reach(), evidence_dead_band(),
-      [this](const Pose& pose) { return walls_at(pose); });
-  places_before_ = places.pose;
+  Places places =
+      refine_places(map_, h, evaluator_.particles(), heaviest_particles(group_.data(), weights_.data(), n, h.size()), n,
+                    points, plain, params_.inlier_distance, frontier_reach(), evidence_dead_band(),
+                    [this](const Pose& pose) { return walls_at(pose); });
   // Between places, only the points that one place explains and the other does not are evidence: each point's
   // log-likelihood difference to the best-fitting hypothesis counts beyond a dead band of what a point
   // inlier_distance off a surface loses. Two look-alike rooms differ in every point by the few millimetres

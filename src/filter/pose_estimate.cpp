@@ -356,18 +356,4 @@ std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const d
   return h;
 }
 
-std::size_t nearest_place(const std::vector<Pose>& places, const Pose& at, const Pose& also,
-                          const std::function<bool(const Pose&, const Pose&)>& same) {
-  std::size_t nearest = places.size();
-  double nearest_m = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < places.size(); ++k) {
-    const double m = (places[k].translation() - at.translation()).norm();
-    if (m < nearest_m && (same(places[k], at) || same(places[k], also))) {
-      nearest = k;
-      nearest_m = m;
-    }
-  }
-  return nearest;
-}
-
 }  // namespace tsdf_mcl

@@ -5,7 +5,6 @@
 
 #include "owned_particles.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/filter/convergence.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
 #include "tsdf_mcl/filter/pose_estimate.hpp"
 #include "tsdf_mcl/core/random.hpp"
@@ -169,25 +168,6 @@ TEST(PoseEstimator, YawWrapsAroundAndBestParticleOption) {
 
   std::fill(w.begin(), w.end(), 0.0);
   EXPECT_THROW(estimator.estimate(p.view, w.data(), 200), Error);
-}
-
-TEST(PoseEstimator, ThePlaceCarriedFromTheLastUpdateIsTheNearestOneOfTheSamePlace) {
-  const auto at = [](double x, double yaw) {
-    Pose p = Pose::Identity();
-    p.translation() = Eigen::Vector3d(x, 0.0, 0.0);
-    p.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    return p;
-  };
-  ConvergenceOptions c;  // one place: within 0.5 m and 0.35 rad
-  const auto same = [&](const Pose& a, const Pose& b) { return c.same_place(a, b); };
-  const std::vector<Pose> carried = {at(0.0, 0.0), at(0.3, 0.0), at(5.0, 0.0), at(0.25, 1.0)};
-  // Nearest to the heaviest particle at 0.2: the place at 0.25 is turned by a radian, so the one at 0.3.
-  EXPECT_EQ(nearest_place(carried, at(0.2, 0.0), at(0.6, 0.0), same), 1u);
-  // Only the mean is near a place (the heaviest particle sits 3 m off): that place.
-  EXPECT_EQ(nearest_place(carried, at(3.0, 0.0), at(4.8, 0.0), same), 2u);
-  // Neither near any: none; and none to carry.
-  EXPECT_EQ(nearest_place(carried, at(10.0, 0.0), at(12.0, 0.0), same), carried.size());
-  EXPECT_EQ(nearest_place({}, at(0.0, 0.0), at(0.0, 0.0), same), 0u);
 }
 
 }  // namespace

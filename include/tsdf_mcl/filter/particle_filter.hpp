@@ -496,7 +496,6 @@ class ParticleFilter {
   Pose update_delta_ = Pose::Identity();  // this update's motion (odometry or IMU)
   // The last update's decisive verdicts (turn_on_decisive_views): the best-judged place's pose and the beaten one's.
   std::vector<std::pair<Pose, Pose>> decisive_before_;
-  std::vector<Pose> places_before_;  // the last update's places, refined onto the map (weigh_hypotheses)
   std::size_t implausible_streak_ = 0;
   double last_challenge_time_ = -1e300;
   bool challengers_weighed_ = false;  // a background search's particles have been through an update

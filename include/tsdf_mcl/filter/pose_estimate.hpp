@@ -13,7 +13,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <vector>
 
@@ -70,11 +69,6 @@ struct Hypothesis {
 inline bool compact(const Hypothesis& h, const PoseEstimateOptions& o) {
   return h.std_position <= o.converged_std_xyz && h.std_rotation <= o.converged_std_angle;
 }
-
-// The index of the pose among `places` nearest to `at` (by position) that `same` (ConvergenceOptions::same_place) calls
-// one place with `at` or with `also`; places.size() where none is.
-std::size_t nearest_place(const std::vector<Pose>& places, const Pose& at, const Pose& also,
-                          const std::function<bool(const Pose&, const Pose&)>& same);
 
 // explained_share of a hypothesis at its pose.
 inline double explained_share(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
