@@ -9,6 +9,11 @@
 namespace tsdf_mcl {
 namespace {
 constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+
+// Whether the map can judge a place's fit: compact, not waiting at the frontier, the scan covered enough.
+bool judged(const PlaceJudgement& p, double min_coverage) {
+  return p.compact && !p.waits && p.coverage >= min_coverage;
+}
 }  // namespace
 
 std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups) {
@@ -50,11 +55,11 @@ std::vector<std::size_t> decisively_beaten(const std::vector<PlaceJudgement>& pl
       std::max_element(evidence.begin(), evidence.begin() + static_cast<std::ptrdiff_t>(places.size())) -
       evidence.begin());
   if (evidence[b] < evidence.back()) return beaten;  // the rest has no pose to judge a fit at
-  const auto judged = [&](const PlaceJudgement& p) { return p.compact && !p.waits && p.coverage >= min_coverage; };
-  if (!judged(places[b])) return beaten;
+  if (!judged(places[b], min_coverage)) return beaten;
   best = b;
   for (std::size_t r = 0; r < places.size(); ++r) {
-    if (r != b && judged(places[r]) && places[b].inlier_ratio - places[r].inlier_ratio >= gap) beaten.push_back(r);
+    if (r != b && judged(places[r], min_coverage) && places[b].inlier_ratio - places[r].inlier_ratio >= gap)
+      beaten.push_back(r);
   }
   return beaten;
 }
@@ -83,18 +88,15 @@ std::size_t even_tied_places(const std::vector<PlaceJudgement>& places, double g
   if (prior_log_share.size() != places.size() + 1 || nats.size() != places.size() + 1)
     throw Error("hypothesis weighting: one share and count per place and the rest");
   if (!(gap > 0.0)) return 0;
-  const auto judged = [&](std::size_t r) {
-    const PlaceJudgement& p = places[r];
-    return p.compact && !p.waits && p.coverage >= min_coverage && std::isfinite(prior_log_share[r]);
-  };
+  const auto even = [&](std::size_t r) { return judged(places[r], min_coverage) && std::isfinite(prior_log_share[r]); };
   double best = -1.0;
   for (std::size_t r = 0; r < places.size(); ++r) {
-    if (judged(r)) best = std::max(best, places[r].inlier_ratio);
+    if (even(r)) best = std::max(best, places[r].inlier_ratio);
   }
   std::vector<std::size_t> tied;
   double max = kMinusInf;
   for (std::size_t r = 0; r < places.size(); ++r) {
-    if (!judged(r) || best - places[r].inlier_ratio >= gap) continue;
+    if (!even(r) || best - places[r].inlier_ratio >= gap) continue;
     tied.push_back(r);
     max = std::max(max, prior_log_share[r] + nats[r]);
   }
