@@ -44,6 +44,22 @@ std::vector<double> place_evidence(double reference_total, const std::vector<dou
   return evidence;
 }
 
+std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
+                                double coverage_gap) {
+  if (reference >= places.size()) throw Error("hypothesis weighting: the reference must be a place");
+  const auto mostly_unobserved = [&](const FrontierView& p) {
+    return p.coverage < most_of_the_scan && p.fits_as_frontier;
+  };
+  const FrontierView& ref = places[reference];
+  std::vector<bool> waits(places.size(), false);
+  for (std::size_t r = 0; r < places.size(); ++r) {
+    const FrontierView& less = places[r].coverage < ref.coverage ? places[r] : ref;
+    const bool door_in_view = std::abs(places[r].coverage - ref.coverage) >= coverage_gap && less.fits_as_frontier;
+    waits[r] = mostly_unobserved(places[r]) || mostly_unobserved(ref) || (coverage_gap > 0.0 && door_in_view);
+  }
+  return waits;
+}
+
 std::vector<std::size_t> decisively_beaten(const std::vector<PlaceJudgement>& places,
                                            const std::vector<double>& evidence, double gap, double min_coverage,
                                            std::size_t& best) {

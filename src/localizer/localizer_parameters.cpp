@@ -224,7 +224,7 @@ void set_estimate(FilterParameters& f, const Values& v) {
   f.estimate_switch_ratio = v.number("estimate_switch_ratio");
   f.wall_tilt_information = v.number("wall_tilt_information");
   f.frontier_evidence = v.flag("frontier_evidence");
-  f.even_tied_places = v.flag("even_tied_places");
+  f.even_tied_places = !v.flag("sampled_place_shares");
   f.see_through_weight = v.number("see_through_weight");
   f.hypothesis_min_particles = v.count("hypothesis_min_particles", limits::kMaxParticles);
   f.hypothesis_min_weight = v.number("hypothesis_min_weight");

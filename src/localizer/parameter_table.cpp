@@ -285,10 +285,10 @@ std::vector<ParameterSpec> fit_and_hypotheses_specs(const FilterParameters& f) {
        "it on two updates in a row, as far as it turns the estimate and no further (0 = off: as few points as the "
        "tempering lets)",
        kAdvanced},
-      {"even_tied_places", "", "",
-       "as a global search first names its places, start the places tied with the best fit at equal shares, "
-       "whatever its particles held there (for buildings of identical units; off: the particles' shares, which "
-       "also hold what the places' fits do not show)",
+      {"sampled_place_shares", "", "",
+       "as a global search first names its places, keep the shares its particles held there (off: the places "
+       "tied with the best fit start at equal shares, since how many of the uniform start's guesses landed near "
+       "each of two identical places is luck, not evidence)",
        kAdvanced},
       {"frontier_evidence", "", "",
        "let points at the frontier of the map's observed space (within a truncation length of space it never "

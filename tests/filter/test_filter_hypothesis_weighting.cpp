@@ -192,5 +192,27 @@ TEST(HypothesisWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
   EXPECT_THROW(even_tied_places(places, 0.03, 0.9, {0.0}, nats), Error);
 }
 
+// The pairs whose evidence waits: a place mostly off the observed map (either side of the pair), and a pair where the
+// map covers clearly less of the scan at one place, as a skipped room's door comes into view. Only where the less
+// covered place fits as a frontier does: a place that fits its observed points badly is judged as before.
+TEST(HypothesisWeighting, APairWaitsWhereADoorToUnobservedSpaceComesIntoView) {
+  const double most = 0.75, gap = 0.05;
+  // 0: the reference, covered; 1: its twin, covered; 2: a door in view; 3: the same gap, fitting badly;
+  // 4: mostly unobserved.
+  const std::vector<FrontierView> places = {{0.99, false}, {0.98, false}, {0.90, true}, {0.90, false}, {0.60, true}};
+  EXPECT_EQ(waiting_pairs(places, 0, most, gap), (std::vector<bool>{false, false, true, false, true}));
+  // Gap 0 keeps only the rule of the mostly unobserved place.
+  EXPECT_EQ(waiting_pairs(places, 0, most, 0.0), (std::vector<bool>{false, false, false, false, true}));
+  // With the door in view at the reference, every place covered clearly more waits against it, the one covered as
+  // little does not.
+  EXPECT_EQ(waiting_pairs(places, 2, most, gap), (std::vector<bool>{true, true, false, false, true}));
+  // A reference mostly off the observed map makes every pair wait; one that fits badly there does not.
+  EXPECT_EQ(waiting_pairs(places, 4, most, gap), (std::vector<bool>{true, true, true, true, true}));
+  std::vector<FrontierView> bad = places;
+  bad[4].fits_as_frontier = false;
+  EXPECT_EQ(waiting_pairs(bad, 0, most, gap), (std::vector<bool>{false, false, true, false, false}));
+  EXPECT_THROW(waiting_pairs(places, 5, most, gap), Error);
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

@@ -74,7 +74,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
                                                      {"wall_tilt_information", "0"},
                                                      {"see_through_weight", "0.5"},
                                                      {"decisive_inlier_gap", "0"},
-                                                     {"even_tied_places", "true"},
+                                                     {"sampled_place_shares", "true"},
                                                      {"init", "initial_pose"},
                                                      {"initial_pose.x", "2"},
                                                      {"initial_pose.yaw", "90deg"}});
@@ -86,7 +86,7 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
   EXPECT_EQ(o.filter.wall_tilt_information, 0.0);
   EXPECT_EQ(o.filter.see_through_weight, 0.5);
   EXPECT_EQ(o.filter.decisive_inlier_gap, 0.0);
-  EXPECT_TRUE(o.filter.even_tied_places);
+  EXPECT_FALSE(o.filter.even_tied_places);
   ASSERT_TRUE(o.initial_pose.has_value());
   EXPECT_NEAR(o.initial_pose->translation().x(), 2.0, 1e-12);
   EXPECT_NEAR(yaw_of(*o.initial_pose), M_PI / 2, 1e-9);

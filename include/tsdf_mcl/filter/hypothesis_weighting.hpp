@@ -30,6 +30,21 @@ std::vector<double> reweight_groups(const double* prior, double* post, const std
 std::vector<double> place_evidence(double reference_total, const std::vector<double>& paired,
                                    const std::vector<bool>& waits, double points);
 
+// What one place's fit says about the frontier of space the map never observed (waiting_pairs).
+struct FrontierView {
+  double coverage = 1.0;          // share of the scan with map evidence (scan_fit.hpp: RayFit::coverage)
+  bool fits_as_frontier = false;  // its observed points fit as a frontier's do, or it continues the kept track
+};
+
+// Which places' evidence against the `reference` place waits (place_evidence): where either of the two lies mostly in
+// unobserved space (coverage below `most_of_the_scan`) and fits as a frontier does, or where the map covers at least
+// `coverage_gap` less of the scan at one of the two and that one fits as a frontier does. The second is a door to a
+// room the mapping run skipped coming into view: its few observed points, surfaces seen once through that door, fit
+// worse than the room's mapped twin long before most of the scan lies in the room. The reference never waits against
+// itself unless it lies mostly in unobserved space.
+std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
+                                double coverage_gap);
+
 // What a verdict between two places rests on (decisively_beaten): one place's fit at its pose refined onto the map.
 struct PlaceJudgement {
   bool compact = false;       // its particles spread within the convergence test's limits
