@@ -74,6 +74,20 @@ FilterRun track_route(const TsdfMap& map, const std::vector<Box>& boxes, const s
   return run(filter, scans, truth, odometry);
 }
 
+// A global search from `truth`'s first scan in `map` that then follows the route (scans simulated in `boxes` with
+// scan_seed, odometry drifting with odometry_seed).
+FilterRun search_route(const TsdfMap& map, const std::vector<Box>& boxes, const std::vector<Pose>& truth,
+                       std::uint64_t odometry_seed, std::uint64_t scan_seed) {
+  const std::vector<Pose> odometry = test::drifting_odometry(truth, odometry_seed);
+  const Scans scans = scan_route(boxes, truth, scan_seed);
+  auto eval = cpu_evaluator(map);
+  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
+  ScanExtras extras;
+  extras.dense = &scans.dense[0];
+  filter.initialize_global(scans.points[0], extras);
+  return run(filter, scans, truth, odometry);
+}
+
 // The building of two identical wings (filter_test_scene.hpp), mapped without the east room: the mapping run
 // saw the corridor up to the room's wall and never entered. The robot tracks from the west room along the
 // corridor into the east room, whose mapped twin (the west room, turned by half a turn) explains its scans
@@ -175,14 +189,7 @@ TEST(ChangedMap, LookAlikePlacesStayLevelAsAnUnmappedRoomComesIntoView) {
   const std::vector<Box> boxes = test::twin_wing_boxes(false);
   const TsdfMap map = map_from_a_run_short_of_the_east_room(boxes, 13.0);
   const std::vector<Pose> truth = route_through({{8.0, 4.0}, {17.6, 4.0}});
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 5);
-  const Scans scans = scan_route(boxes, truth, 7);
-  auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
-  ScanExtras extras;
-  extras.dense = &scans.dense[0];
-  filter.initialize_global(scans.points[0], extras);
-  const FilterRun r = run(filter, scans, truth, odometry);
+  const FilterRun r = search_route(map, boxes, truth, 5, 7);
   // The share of the belief at the true place and at its image, (x, y, yaw) -> (24 - x, 8 - y, yaw + pi).
   const auto share_near = [&](std::size_t i, const Eigen::Vector3d& where) {
     double share = 0.0;
@@ -448,14 +455,7 @@ TEST(ChangedMap, TwoFloorsOfOnePlanNeverClaimTheWrongFloor) {
   const TsdfMap map =
       test::make_box_map(boxes, Eigen::Vector3f(-0.2f, -0.2f, -0.2f), Eigen::Vector3f(14.2f, 9.2f, 5.8f));
   const std::vector<Pose> truth = route_through({{1.5, 6.0}, {1.5, 2.5}, {4.8, 3.6}, {8.0, 3.6}, {12.0, 3.5}}, 3.0);
-  const std::vector<Pose> odometry = test::drifting_odometry(truth, 17);
-  const Scans scans = scan_route(boxes, truth, 9);
-  auto eval = cpu_evaluator(map);
-  ParticleFilter filter(map, *eval, test::small_building_parameters(), 256);
-  ScanExtras extras;
-  extras.dense = &scans.dense[0];
-  filter.initialize_global(scans.points[0], extras);
-  const FilterRun r = run(filter, scans, truth, odometry);
+  const FilterRun r = search_route(map, boxes, truth, 17, 9);
   bool both_floors = false;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const FilterStep& s = r.steps[i];
