@@ -53,8 +53,9 @@ std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::si
   const FrontierView& ref = places[reference];
   std::vector<bool> waits(places.size(), false);
   for (std::size_t r = 0; r < places.size(); ++r) {
-    const FrontierView& less = places[r].coverage < ref.coverage ? places[r] : ref;
-    const bool door_in_view = std::abs(places[r].coverage - ref.coverage) >= coverage_gap && less.fits_as_frontier;
+    // Both fit their observed points well: look-alikes, not a place the scan already refutes.
+    const bool door_in_view = !places[r].near_reference && places[r].fits_as_frontier && ref.fits_as_frontier &&
+                              std::abs(places[r].coverage - ref.coverage) >= coverage_gap;
     waits[r] = mostly_unobserved(places[r]) || mostly_unobserved(ref) || (coverage_gap > 0.0 && door_in_view);
   }
   return waits;

@@ -246,7 +246,8 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   // the belief to the mapped twin while its coverage fell from 0.94 to 0.78, enough to move an estimate 18 m.
   std::vector<FrontierView> views(h.size());
   for (std::size_t r = 0; r < h.size(); ++r) {
-    views[r] = FrontierView{places.fit[r].coverage(), at_frontier_of(places.fit[r], places.pose[r])};
+    const bool near = (places.pose[r].translation() - places.pose[ref].translation()).norm() <= kTrackRadius;
+    views[r] = FrontierView{places.fit[r].coverage(), at_frontier_of(places.fit[r], places.pose[r]), near};
   }
   const std::vector<bool> waits = waiting_pairs(views, ref, kMostOfTheScan, kFrontierCoverageGap);
   std::vector<double> paired(h.size(), 0.0);

@@ -193,25 +193,30 @@ TEST(HypothesisWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
 }
 
 // The pairs whose evidence waits: a place mostly off the observed map (either side of the pair), and a pair where the
-// map covers clearly less of the scan at one place, as a skipped room's door comes into view. Only where the less
-// covered place fits as a frontier does: a place that fits its observed points badly is judged as before.
+// map covers clearly less of the scan at one place, as a skipped room's door comes into view. Only where both fit as a
+// frontier does: a place that fits its observed points badly is judged as before.
 TEST(HypothesisWeighting, APairWaitsWhereADoorToUnobservedSpaceComesIntoView) {
   const double most = 0.75, gap = 0.05;
   // 0: the reference, covered; 1: its twin, covered; 2: a door in view; 3: the same gap, fitting badly;
-  // 4: mostly unobserved.
-  const std::vector<FrontierView> places = {{0.99, false}, {0.98, false}, {0.90, true}, {0.90, false}, {0.60, true}};
-  EXPECT_EQ(waiting_pairs(places, 0, most, gap), (std::vector<bool>{false, false, true, false, true}));
+  // 4: mostly unobserved; 5: covered, fitting badly (refuted).
+  const std::vector<FrontierView> places = {{0.99, true},  {0.98, true}, {0.90, true},
+                                            {0.90, false}, {0.60, true}, {0.99, false}};
+  EXPECT_EQ(waiting_pairs(places, 0, most, gap), (std::vector<bool>{false, false, true, false, true, false}));
   // Gap 0 keeps only the rule of the mostly unobserved place.
-  EXPECT_EQ(waiting_pairs(places, 0, most, 0.0), (std::vector<bool>{false, false, false, false, true}));
-  // With the door in view at the reference, every place covered clearly more waits against it, the one covered as
-  // little does not.
-  EXPECT_EQ(waiting_pairs(places, 2, most, gap), (std::vector<bool>{true, true, false, false, true}));
+  EXPECT_EQ(waiting_pairs(places, 0, most, 0.0), (std::vector<bool>{false, false, false, false, true, false}));
+  // With the door in view at the reference, every place that fits well and is covered clearly more waits against it;
+  // the one covered as little and the refuted one do not.
+  EXPECT_EQ(waiting_pairs(places, 2, most, gap), (std::vector<bool>{true, true, false, false, true, false}));
   // A reference mostly off the observed map makes every pair wait; one that fits badly there does not.
-  EXPECT_EQ(waiting_pairs(places, 4, most, gap), (std::vector<bool>{true, true, true, true, true}));
+  EXPECT_EQ(waiting_pairs(places, 4, most, gap), (std::vector<bool>{true, true, true, true, true, true}));
   std::vector<FrontierView> bad = places;
   bad[4].fits_as_frontier = false;
-  EXPECT_EQ(waiting_pairs(bad, 0, most, gap), (std::vector<bool>{false, false, true, false, false}));
-  EXPECT_THROW(waiting_pairs(places, 5, most, gap), Error);
+  EXPECT_EQ(waiting_pairs(bad, 0, most, gap), (std::vector<bool>{false, false, true, false, false, false}));
+  // A variant of the reference (a sunk copy of a drone's track) is judged on the points observed at both.
+  std::vector<FrontierView> variant = places;
+  variant[2].near_reference = true;
+  EXPECT_EQ(waiting_pairs(variant, 0, most, gap), (std::vector<bool>{false, false, false, false, true, false}));
+  EXPECT_THROW(waiting_pairs(places, 6, most, gap), Error);
 }
 
 }  // namespace

@@ -34,14 +34,18 @@ std::vector<double> place_evidence(double reference_total, const std::vector<dou
 struct FrontierView {
   double coverage = 1.0;          // share of the scan with map evidence (scan_fit.hpp: RayFit::coverage)
   bool fits_as_frontier = false;  // its observed points fit as a frontier's do, or it continues the kept track
+  bool near_reference = false;    // within a track's reach of the reference place: a variant of it, not a look-alike
 };
 
 // Which places' evidence against the `reference` place waits (place_evidence): where either of the two lies mostly in
 // unobserved space (coverage below `most_of_the_scan`) and fits as a frontier does, or where the map covers at least
-// `coverage_gap` less of the scan at one of the two and that one fits as a frontier does. The second is a door to a
-// room the mapping run skipped coming into view: its few observed points, surfaces seen once through that door, fit
-// worse than the room's mapped twin long before most of the scan lies in the room. The reference never waits against
-// itself unless it lies mostly in unobserved space.
+// `coverage_gap` less of the scan at one of the two and both fit as a frontier does: look-alikes that fit well, not a
+// place the scan already refutes, nor variants of one place (near_reference). The second is a door to a room the
+// mapping run skipped coming into view: its few observed points, surfaces seen once through that door, fit worse than
+// the room's mapped twin long before most of the scan lies in the room. Between variants of one place (a drone's track
+// and a sunk copy of it that puts more of the scan on the mapped band) the coverage gap is what the pose changes, and
+// the points observed at both judge it. The reference never waits against itself unless it lies mostly in unobserved
+// space.
 std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
                                 double coverage_gap);
 
