@@ -241,9 +241,10 @@ void ParticleFilter::weigh_hypotheses(std::size_t n, const std::vector<Eigen::Ve
   // A waiting place takes the best evidence of the places judged (place_evidence), not the reference's: in the
   // symmetric building a third place held the best total, the mirror wing beat it by 54 nats, and the right track,
   // at the frontier and tied with that third place, fell from 0.96 to 0.50 of the belief in two updates.
-  // A pair waits too where the map covers kFrontierCoverageGap less of the scan at one place, which fits as a frontier
-  // (waiting_pairs): in the symmetric-skip runs, as the skipped room's door came into view, the true wing lost 0.05 of
-  // the belief to the mapped twin while its coverage fell from 0.94 to 0.78, enough to move an estimate 18 m.
+  // A pair waits too where the map covers kFrontierCoverageGap less of the scan at one of two look-alikes that both fit
+  // as a frontier does (waiting_pairs): in the symmetric-skip runs, as the skipped room's door came into view, the true
+  // wing lost 0.05 of the belief to the mapped twin while its coverage fell from 0.94 to 0.78, enough to move an
+  // estimate 18 m.
   std::vector<FrontierView> views(h.size());
   for (std::size_t r = 0; r < h.size(); ++r) {
     const bool near = (places.pose[r].translation() - places.pose[ref].translation()).norm() <= kTrackRadius;
