@@ -46,6 +46,7 @@ std::vector<double> place_evidence(double reference_total, const std::vector<dou
 
 std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
                                 double coverage_gap) {
+  if (places.empty()) return {};  // no hypotheses: nothing to pair
   if (reference >= places.size()) throw Error("hypothesis weighting: the reference must be a place");
   const auto mostly_unobserved = [&](const FrontierView& p) {
     return p.coverage < most_of_the_scan && p.fits_as_frontier;

@@ -217,6 +217,7 @@ TEST(HypothesisWeighting, APairWaitsWhereADoorToUnobservedSpaceComesIntoView) {
   variant[2].near_reference = true;
   EXPECT_EQ(waiting_pairs(variant, 0, most, gap), (std::vector<bool>{false, false, false, false, true, false}));
   EXPECT_THROW(waiting_pairs(places, 6, most, gap), Error);
+  EXPECT_TRUE(waiting_pairs({}, 0, most, gap).empty());
 }
 
 }  // namespace

@@ -45,7 +45,7 @@ struct FrontierView {
 // the room's mapped twin long before most of the scan lies in the room. Between variants of one place (a drone's track
 // and a sunk copy of it that puts more of the scan on the mapped band) the coverage gap is what the pose changes, and
 // the points observed at both judge it. The reference never waits against itself unless it lies mostly in unobserved
-// space.
+// space. No places: none.
 std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
                                 double coverage_gap);
 
