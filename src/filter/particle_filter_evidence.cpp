@@ -52,21 +52,21 @@ struct Places {
   std::size_t reference = 0;  // the best-fitting place
 };
 
-// Each group's k heaviest particles (by weight, heaviest first; fewer where a group has fewer).
+// Each group's k heaviest particles (by weight, heaviest first, ties by index; fewer where a group has fewer). One pass
+// that keeps each group's k best so far: every update runs it over all particles, and k is small.
 std::vector<std::vector<std::size_t>> heaviest_particles(const std::int32_t* group, const double* w, std::size_t n,
                                                          std::size_t groups, std::size_t k) {
-  std::vector<std::vector<std::size_t>> members(groups);
+  const auto heavier = [&](std::size_t a, std::size_t b) { return w[a] > w[b] || (w[a] == w[b] && a < b); };
+  std::vector<std::vector<std::size_t>> best(groups);
   for (std::size_t i = 0; i < n; ++i) {
     const auto g = static_cast<std::size_t>(group[i]);
-    if (g < groups) members[g].push_back(i);
+    if (g >= groups || k == 0) continue;
+    std::vector<std::size_t>& b = best[g];
+    if (b.size() == k && !heavier(i, b.back())) continue;
+    b.insert(std::upper_bound(b.begin(), b.end(), i, heavier), i);
+    if (b.size() > k) b.pop_back();
   }
-  for (std::vector<std::size_t>& m : members) {
-    const std::size_t keep = std::min(k, m.size());
-    std::partial_sort(m.begin(), m.begin() + static_cast<std::ptrdiff_t>(keep), m.end(),
-                      [&](std::size_t a, std::size_t b) { return w[a] > w[b] || (w[a] == w[b] && a < b); });
-    m.resize(keep);
-  }
-  return members;
+  return best;
 }
 
 // Whether each point, seen from `pose`, ends in a voxel the map observed.
