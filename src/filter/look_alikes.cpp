@@ -25,7 +25,7 @@ LookAlikeMemory::LookAlikeMemory(const TsdfMap& map, const LookAlikeOptions& opt
   options_.validate();
 }
 
-double LookAlikeMemory::Proven::odds_share() const { return 1.0 / (1.0 + std::exp(evidence)); }
+double LookAlikeMemory::Standing::odds_share() const { return 1.0 / (1.0 + std::exp(evidence)); }
 
 double LookAlikeMemory::LookAlike::recent_evidence() const {
   double sum = 0.0;
@@ -45,6 +45,12 @@ void LookAlikeMemory::reset() {
 std::vector<Pose> LookAlikeMemory::places() const {
   std::vector<Pose> out;
   for (const LookAlike& l : look_alikes_) out.push_back(l.relative * track_);
+  return out;
+}
+
+std::vector<LookAlikeMemory::Standing> LookAlikeMemory::kept() const {
+  std::vector<Standing> out;
+  for (const LookAlike& l : look_alikes_) out.push_back(Standing{l.relative * track_, l.evidence});
   return out;
 }
 
@@ -138,7 +144,7 @@ std::size_t LookAlikeMemory::update(const Pose& top, const Pose& motion, const s
     // the track's scan judged by the map.
     if (track_mapped && l.evidence <= -options_.refute_nats && l.recent_evidence() <= -options_.refute_nats &&
         plausible(verdict) && (!proven_ || l.evidence < proven_->evidence)) {
-      proven_ = Proven{place, l.evidence};
+      proven_ = Standing{place, l.evidence};
     }
     if (l.evidence >= options_.refute_nats || !plausible(verdict)) {
       refute(l.relative);

@@ -145,7 +145,7 @@ void ParticleFilter::start(std::size_t count) {
   keeper_.reset();
   look_alikes_.reset();
   restore_pending_ = false;
-  proven_look_alike_.reset();
+  look_alike_to_restore_.reset();
   trusted_ = false;
   ever_converged_ = false;
   ever_concentrated_ = false;
@@ -276,7 +276,7 @@ void ParticleFilter::decide(const Pose& delta, double dt, const std::vector<Eige
     // A wrong lock: search again as after a global initialization (roughening, averages forgotten).
     keeper_.reset();
     look_alikes_.reset();
-    proven_look_alike_.reset();
+    look_alike_to_restore_.reset();
     ever_converged_ = false;
     local_start_ = false;
     recovery_.reset();
@@ -320,7 +320,7 @@ void ParticleFilter::resample_policy(double time, std::size_t n, const std::vect
         step.injected = injected;
       } else if (injection.look_alike) {
         step.look_alike_restored = injected;
-        proven_look_alike_.reset();
+        look_alike_to_restore_.reset();
       } else if (injection.around) {
         step.restored = injected;
         restore_pending_ = false;

@@ -720,7 +720,7 @@ LookAlikeMemory::Verdict ParticleFilter::judge_places(const Pose& a, const Pose&
 void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<Eigen::Vector3f>& points,
                                           FilterStep& step) {
   const std::vector<Hypothesis>& h = estimate_.hypotheses;
-  proven_look_alike_.reset();  // this update's proof or none (one that recovery or a restore kept waiting is stale)
+  look_alike_to_restore_.reset();  // this update's or none (one that recovery or a restore kept waiting is stale)
   // A local start's pose is what tells its place from look-alikes: the operator's, not the scans'.
   if (!look_alikes_.enabled() || h.empty() || local_start_) return;
   // The other hypotheses that explain about as much of the scan as the track (LookAlikeOptions::explain_margin): the
@@ -774,15 +774,33 @@ void ParticleFilter::remember_look_alikes(const Pose& delta, const std::vector<E
   // concentrated: a global search's spread belief holds its places itself, and the memory's "track" is only its
   // heaviest mode (particles put at the best of 8 look-alikes 12 scans into the search delayed the two-storey VLP-16
   // ground-3 run's first right estimate by 20 scans).
-  const auto& proven = look_alikes_.proven();
-  if (proven && ever_concentrated_) {
+  // Until the track first converges it was never proven against its look-alikes either: then any kept look-alike
+  // takes the share its evidence gives it, not only a proven one. In the two-storey OS0-64 drone-4 run the global
+  // search put no particle on the true storey; the memory kept it level with the track (evidence near 0) for 210
+  // scans while the belief held next to nothing there, and when the staircase came into view the refute_nats of a
+  // proof took 4 scans; a belief holding both storeys turns on the first scans that tell them apart.
+  if (!ever_concentrated_) return;
+  const auto held_at = [&](const Pose& place) {
     double held = 0.0;
     for (const Hypothesis& x : h) {
-      if ((x.pose.translation() - proven->place.translation()).norm() <= params_.convergence.max_jump_m)
-        held += x.weight;
+      if ((x.pose.translation() - place.translation()).norm() <= params_.convergence.max_jump_m) held += x.weight;
     }
-    const double want = proven->odds_share();
-    if (held < 0.5 * want) proven_look_alike_ = ProvenLookAlike{proven->place, (want - held) / (1.0 - held)};
+    return held;
+  };
+  std::vector<LookAlikeMemory::Standing> candidates;
+  if (const auto& proven = look_alikes_.proven()) candidates.push_back(*proven);
+  if (!ever_converged_ && !(h.front().coverage < kMostOfTheScan)) {
+    for (const LookAlikeMemory::Standing& l : look_alikes_.kept()) candidates.push_back(l);
+  }
+  // The one the belief lacks most, if it holds less than half of what its evidence gives.
+  double lacked = 0.0;
+  for (const LookAlikeMemory::Standing& l : candidates) {
+    const double held = held_at(l.place);
+    const double want = l.odds_share();
+    if (held < 0.5 * want && want - held > lacked) {
+      lacked = want - held;
+      look_alike_to_restore_ = LookAlikeToRestore{l.place, (want - held) / (1.0 - held)};
+    }
   }
 }
 

@@ -37,13 +37,13 @@ ParticleFilter::Injection ParticleFilter::plan_injection(double time, const Filt
     in.candidates = in.count;
     in.share = 0.5;
     in.around = keeper_.pose();
-  } else if (proven_look_alike_) {
-    // A look-alike the scans proved better, of which the belief holds too little: as many particles, with the share
-    // its evidence gives it (LookAlikeMemory::proven).
+  } else if (look_alike_to_restore_) {
+    // A look-alike of which the belief holds too little (proven better, or kept before the track first converged): as
+    // many particles, with the share its evidence gives it (remember_look_alikes).
     in.count = around_count;
     in.candidates = in.count;
-    in.share = proven_look_alike_->share;
-    in.around = proven_look_alike_->place;
+    in.share = look_alike_to_restore_->share;
+    in.around = look_alike_to_restore_->place;
     in.look_alike = true;
   } else if (params_.challenger_candidates > 0 && ever_concentrated_ &&
              time - last_challenge_time_ >= params_.challenger_interval) {

@@ -91,6 +91,12 @@ TEST(LookAlikes, KeptUntilTheScansRefuteIt) {
       ASSERT_EQ(kept, 1u) << "scan " << i << ": the wings look alike so far";
       // Followed where the odometry carries it: the image of the track.
       EXPECT_LT(test::translation_error(m.places().front(), half_turn(w.truth[i])), 0.2) << "scan " << i;
+      // Its standing (what the filter restores before the track first converges): the same place, and a sum as even
+      // as the scans so far, so about half of the pair's belief.
+      const std::vector<LookAlikeMemory::Standing> standing = m.kept();
+      ASSERT_EQ(standing.size(), 1u) << "scan " << i;
+      EXPECT_LT(test::translation_error(standing.front().place, m.places().front()), 1e-9) << "scan " << i;
+      EXPECT_GT(standing.front().odds_share(), 0.2) << "scan " << i << ": evidence " << standing.front().evidence;
     }
     // The memory refines the image on each scan, so its sum differs a little from this one.
     if (evidence > 2.0 * LookAlikeOptions{}.refute_nats) {

@@ -20,10 +20,11 @@
 // found and within the last proof_window_m of travel, while the map covers most of the track's scan) is named by
 // proven(). Where the belief lost its particles there, an equal share is out of reach for it (from 2e-6, tens of
 // scans of a view that tells the places apart): the filter puts particles back at it (where the belief holds less than
-// half of it) with the share those scans give it, the belief a set that had kept particles there would hold. When the
-// track then moves to a look-alike, the place it left starts with the look-alike's evidence turned round: the scans
-// that proved one refuted the other; the other look-alikes' sums start over whenever the track jumps (evidence against
-// one track says nothing against another).
+// half of it) with the share those scans give it, the belief a set that had kept particles there would hold; until the
+// track first converges, any kept look-alike (kept(), proven or not) is put back so. When the track then moves to a
+// look-alike, the place it left starts with the look-alike's evidence turned round: the scans that proved one refuted
+// the other; the other look-alikes' sums start over whenever the track jumps (evidence against one track says nothing
+// against another).
 #include <Eigen/Core>
 #include <cstddef>
 #include <deque>
@@ -62,10 +63,10 @@ class LookAlikeMemory {
     double track_explained = 0.0;  // share of the scan's points each explains (inliers over all points)
     double place_explained = 0.0;
   };
-  // A look-alike the scans since it was found favour over the track by refute_nats (on this update).
-  struct Proven {
+  // A kept look-alike as the scans since it was found judge it against the track.
+  struct Standing {
     Pose place;                 // its refined world pose on this scan
-    double evidence = 0.0;      // summed for the track: -refute_nats or less
+    double evidence = 0.0;      // summed for the track since it was found (proven: -refute_nats or less)
     double odds_share() const;  // the share of {track, place} the evidence gives the place: 1 / (1 + e^evidence)
   };
   using Judge =
@@ -87,7 +88,9 @@ class LookAlikeMemory {
   std::vector<Pose> places() const;
   // The kept look-alike the scans prove better than the track (the best-proven one) at this update, if any: on every
   // update while its evidence holds, whether or not the belief already followed it (the filter judges that).
-  const std::optional<Proven>& proven() const { return proven_; }
+  const std::optional<Standing>& proven() const { return proven_; }
+  // Every kept look-alike at the last update, proven or not.
+  std::vector<Standing> kept() const;
 
  private:
   bool near(const Pose& a, const Pose& b) const;
@@ -111,7 +114,7 @@ class LookAlikeMemory {
   };
   std::vector<LookAlike> look_alikes_;
   std::vector<Pose> refuted_;
-  std::optional<Proven> proven_;
+  std::optional<Standing> proven_;
 };
 
 }  // namespace tsdf_mcl

@@ -447,13 +447,14 @@ class ParticleFilter {
   TrackKeeper keeper_;
   LookAlikeMemory look_alikes_;
   bool restore_pending_ = false;  // the next resampling puts particles back on the track
-  // A look-alike the memory proved better than the track (remember_look_alikes): the next resampling puts particles
-  // there with this share of the belief.
-  struct ProvenLookAlike {
+  // A look-alike of which the belief holds less than half the share its evidence gives it (remember_look_alikes: one
+  // the memory proved better than the track, or any it keeps before the track first converged): the next resampling
+  // puts particles there with this share of the belief.
+  struct LookAlikeToRestore {
     Pose place;
     double share = 0.0;
   };
-  std::optional<ProvenLookAlike> proven_look_alike_;
+  std::optional<LookAlikeToRestore> look_alike_to_restore_;
   bool trusted_ = false;         // converged with enough map coverage, not lapsed where the map covers the scan
   bool track_followed_ = false;  // this update: the dominant hypothesis continues the kept track (keep_track)
   Matrix6d track_covariance_ = Matrix6d::Zero();
