@@ -50,7 +50,8 @@ std::vector<Pose> LookAlikeMemory::places() const {
 
 std::vector<LookAlikeMemory::Standing> LookAlikeMemory::kept() const {
   std::vector<Standing> out;
-  for (const LookAlike& l : look_alikes_) out.push_back(Standing{l.relative * track_, l.evidence});
+  for (const LookAlike& l : look_alikes_)
+    out.push_back(Standing{l.relative * track_, l.evidence, travel_ - l.found_at});
   return out;
 }
 
@@ -136,6 +137,7 @@ std::size_t LookAlikeMemory::update(const Pose& top, const Pose& motion, const s
       // search had just found).
       l.evidence = 0.0;
       l.recent.clear();
+      l.found_at = travel_;
     }
     l.evidence += verdict.evidence;
     l.recent.emplace_back(travel_, verdict.evidence);
@@ -144,7 +146,7 @@ std::size_t LookAlikeMemory::update(const Pose& top, const Pose& motion, const s
     // the track's scan judged by the map.
     if (track_mapped && l.evidence <= -options_.refute_nats && l.recent_evidence() <= -options_.refute_nats &&
         plausible(verdict) && (!proven_ || l.evidence < proven_->evidence)) {
-      proven_ = Standing{place, l.evidence};
+      proven_ = Standing{place, l.evidence, travel_ - l.found_at};
     }
     if (l.evidence >= options_.refute_nats || !plausible(verdict)) {
       refute(l.relative);
@@ -178,7 +180,7 @@ std::size_t LookAlikeMemory::update(const Pose& top, const Pose& motion, const s
     }
     if (!plausible(now)) continue;
     if (refuted && now.evidence > -options_.refute_nats) continue;
-    look_alikes_.push_back(LookAlike{o * top.inverse(), evidence, {{travel_, now.evidence}}});
+    look_alikes_.push_back(LookAlike{o * top.inverse(), evidence, {{travel_, now.evidence}}, travel_});
   }
   return look_alikes_.size();
 }

@@ -175,18 +175,18 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
 }
 
 // A belief that dropped the true wing gets it back level before the cabinet tells the wings apart: until the track
-// first converges it was never proven against its look-alikes, and the look-alike memory gives the wing it keeps the
-// share its evidence does (particle_filter_evidence.cpp, remember_look_alikes), about half. The cabinet's first views
-// then turn the estimate with no proof to wait for, and no wrong wing is claimed once the belief has held the true one.
-// A small first search (4,000 candidates, 2,000 kept) holds one wing only in most seeds; so small a search may also
-// miss the true wing altogether, and a claim before the challengers first find it is the limit "the honesty of
-// converged rests on the search having found the right place somewhere" (docs/filter.md), not what this test is
-// about.
+// first converges it was never proven against its look-alikes, and the look-alike memory gives the wing it has kept
+// over 2 m of travel the share its evidence does (particle_filter_evidence.cpp, remember_look_alikes), about half. The
+// cabinet's first views then turn the estimate with no proof to wait for, and no wrong wing is claimed once the belief
+// has held the true one. A small first search (4,000 candidates, 2,000 kept) holds one wing only in some seeds; so
+// small a search may also miss the true wing altogether and converge on the mirror before the challengers find it,
+// the limit "the honesty of converged rests on the search having found the right place somewhere" (docs/filter.md):
+// such a seed is no case of this test. Every other seed that lacked the true wing must come back.
 TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
   const TwinWingWalk walk = twin_wing_walk();
   const auto& [map, truth, odometry, scans] = walk;
   const double cabinet_x = 9.7;  // the cabinet comes into view
-  std::size_t came_back = 0;     // seeds that lacked the true wing, held it level later and turned at the cabinet
+  std::size_t cases = 0;         // seeds that lacked the true wing without having claimed the mirror
   for (std::uint64_t seed = 1; seed <= 8; ++seed) {
     auto eval = cpu_evaluator(map);
     FilterParameters p = test::small_building_parameters();
@@ -199,9 +199,10 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
     ScanExtras extras;
     extras.dense = &scans.dense[0];
     filter.initialize_global(scans.points[0], extras);
-    bool held = false;    // the belief has held the true wing (a tenth of it)
+    bool held = false;           // the belief has held the true wing (a tenth of it)
+    bool claimed_blind = false;  // converged before it ever had
     bool lacked = false;  // the belief has held less than a hundredth at the true wing, nine tenths at the mirror
-    bool level = false;   // and then a third to two thirds of it at the true wing, before the cabinet
+    bool level = false;   // and then a fifth to four fifths of it at the true wing, before the cabinet
     std::size_t right_from = 0;
     std::size_t cabinet_step = truth.size();
     for (std::size_t i = 0; i < truth.size(); ++i) {
@@ -219,8 +220,9 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
       const bool before_cabinet = truth[i].translation().x() < cabinet_x;
       if (!before_cabinet) cabinet_step = std::min(cabinet_step, i);
       if (true_wing < 0.01 && weight_near(mirrored(truth[i])) > 0.9) lacked = true;
-      if (lacked && before_cabinet && true_wing > 0.3 && true_wing < 0.7) level = true;
+      if (lacked && before_cabinet && true_wing > 0.2 && true_wing < 0.8) level = true;
       held = held || true_wing > 0.1;
+      claimed_blind = claimed_blind || (!held && step.estimate.converged);
       const double error = test::translation_error(step.estimate.pose, truth[i]);
       if (error > 0.3) right_from = i + 1;
       if (held && step.estimate.converged) {
@@ -230,17 +232,21 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
     }
     EXPECT_LT(test::translation_error(filter.estimate().pose, truth.back()), 0.2) << "seed " << seed;
     if (std::getenv("TSDF_MCL_TEST_DEBUG")) {
-      std::fprintf(stderr, "seed %llu: lacked %d level %d right from step %zu, cabinet from %zu\n",
-                   static_cast<unsigned long long>(seed), lacked, level, right_from, cabinet_step);
+      std::fprintf(stderr, "seed %llu: lacked %d claimed blind %d level %d right from step %zu, cabinet from %zu\n",
+                   static_cast<unsigned long long>(seed), lacked, claimed_blind, level, right_from, cabinet_step);
     }
-    if (lacked && level && right_from <= cabinet_step + 1) ++came_back;
+    if (!lacked || claimed_blind) continue;
+    ++cases;
+    EXPECT_TRUE(level) << "seed " << seed << ": the true wing never came back level before the cabinet";
+    EXPECT_LE(right_from, cabinet_step + 1)
+        << "seed " << seed << ": the cabinet's first sight did not turn the estimate";
   }
-  // Measured: 3 of the 8 seeds (2, 3, 6) lacked the true wing, held it level again long before the cabinet and
-  // were right from step 27, two steps before the cabinet's first sight. With a proof only (no shares before the
-  // first convergence) none held it level: seeds 2 and 6 turned on the proof at step 29. Seed 1 claimed the mirror wing
-  // at step 8, a step before the challengers first found the true one: its track had converged, and the proof at the
-  // cabinet turned it at step 35. The other four held both wings throughout.
-  EXPECT_GE(came_back, 2u);
+  // Measured: seeds 2 and 6 lacked the true wing, held it level again long before the cabinet and were right from step
+  // 27, two steps before the cabinet's first sight; with a proof only (no shares before the first convergence) both
+  // turned on the proof at step 29, never level before. Seed 1 converged on the mirror wing at step 8, before the
+  // challengers first found the true one, and the proof at the cabinet turned it at step 35. The other five held both
+  // wings throughout. (Seeds 9-16: one more claimed blind, none lacked otherwise.)
+  EXPECT_GE(cases, 1u) << "no seed lacked the true wing: the test's premise is gone";
 }
 
 // hypothesis_min_weight above converged_competitor_weight: a hypothesis credible enough to compete but too light to

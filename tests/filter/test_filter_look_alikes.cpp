@@ -79,9 +79,11 @@ TEST(LookAlikes, KeptUntilTheScansRefuteIt) {
   const Walk w = walk(boxes);
   LookAlikeMemory m = memory(map);
   double evidence = 0.0;  // for the truth over the image, scan by scan
+  double walked = 0.0;    // m of odometry since the image was found
   bool refuted = false;
   for (std::size_t i = 0; i < w.truth.size(); ++i) {
     evidence += told(map, w, i);
+    if (i > 0) walked += (w.truth[i - 1].inverse() * w.truth[i]).translation().norm();
     // The belief holds the image only for the first scan: the memory follows it from there on its own.
     std::vector<Pose> others;
     if (i == 0) others.push_back(half_turn(w.truth[0]));
@@ -91,11 +93,13 @@ TEST(LookAlikes, KeptUntilTheScansRefuteIt) {
       ASSERT_EQ(kept, 1u) << "scan " << i << ": the wings look alike so far";
       // Followed where the odometry carries it: the image of the track.
       EXPECT_LT(test::translation_error(m.places().front(), half_turn(w.truth[i])), 0.2) << "scan " << i;
-      // Its standing (what the filter restores before the track first converges): the same place, and a sum as even
-      // as the scans so far, so about half of the pair's belief.
+      // Its standing (what the filter restores before the track first converges, once the sum spans proof_window_m):
+      // the same place, the travel since it was found, and a sum as even as the scans so far, so about half of the
+      // pair's belief.
       const std::vector<LookAlikeMemory::Standing> standing = m.kept();
       ASSERT_EQ(standing.size(), 1u) << "scan " << i;
       EXPECT_LT(test::translation_error(standing.front().place, m.places().front()), 1e-9) << "scan " << i;
+      EXPECT_NEAR(standing.front().travelled, walked, 1e-9) << "scan " << i;
       EXPECT_GT(standing.front().odds_share(), 0.2) << "scan " << i << ": evidence " << standing.front().evidence;
     }
     // The memory refines the image on each scan, so its sum differs a little from this one.

@@ -67,6 +67,7 @@ class LookAlikeMemory {
   struct Standing {
     Pose place;                 // its refined world pose on this scan
     double evidence = 0.0;      // summed for the track since it was found (proven: -refute_nats or less)
+    double travelled = 0.0;     // m of odometry that sum spans
     double odds_share() const;  // the share of {track, place} the evidence gives the place: 1 / (1 + e^evidence)
   };
   using Judge =
@@ -111,6 +112,7 @@ class LookAlikeMemory {
     // The scans within the last proof_window_m of travel: (travel_ when taken, evidence).
     std::deque<std::pair<double, double>> recent;
     double recent_evidence() const;
+    double found_at = 0.0;  // travel_ when found (or when its sum started over)
   };
   std::vector<LookAlike> look_alikes_;
   std::vector<Pose> refuted_;
