@@ -21,10 +21,10 @@
 // proven(). Where the belief lost its particles there, an equal share is out of reach for it (from 2e-6, tens of
 // scans of a view that tells the places apart): the filter puts particles back at it (where the belief holds less than
 // half of it) with the share those scans give it, the belief a set that had kept particles there would hold; until the
-// track first converges, any kept look-alike (kept(), proven or not) is put back so. When the track then moves to a
-// look-alike, the place it left starts with the look-alike's evidence turned round: the scans that proved one refuted
-// the other; the other look-alikes' sums start over whenever the track jumps (evidence against one track says nothing
-// against another).
+// track first converges, any look-alike kept over proof_window_m of travel (kept(), proven or not) is put back so. When
+// the track then moves to a look-alike, the place it left starts with the look-alike's evidence turned round: the scans
+// that proved one refuted the other; the other look-alikes' sums start over whenever the track jumps (evidence against
+// one track says nothing against another).
 #include <Eigen/Core>
 #include <cstddef>
 #include <deque>
