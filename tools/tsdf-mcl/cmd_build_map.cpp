@@ -120,7 +120,7 @@ void check_sources_and_output(const Options& o) {
   if (!o.has("output")) throw Error("missing -o MAP (the map file to write)");
   const fs::path output = o.text("output");
   if (output.empty()) throw Error("-o needs a file name");
-  check_output_file(output, "map");
+  check_output_file(output, "map", input_paths(o, {"mesh", "cloud", "trajectory", "bag", "import_h5", "dataset"}));
   if (!scans_source) {
     for (const char* name : {"start", "stride", "count", "laser_min_range"}) {
       if (o.has(name)) throw Error(std::string("build-map: --") + name + " applies to --dataset and --bag only");

@@ -222,7 +222,7 @@ int run_simulate(int argc, char** argv) {
   // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
   std::unique_ptr<BagWriter> bag;
   if (const auto bag_file = o.maybe("bag")) {
-    check_output_file(*bag_file, "bag");
+    check_output_file(*bag_file, "bag", input_paths(o, {"scene", "lidar"}));
     bag = std::make_unique<BagWriter>(*bag_file);
     s.on_scan = [&](const sim::SimulatedScan& scan) {
       if (bag->scans() == 0) bag->set_base_T_sensor(scan.base_T_sensor);
