@@ -164,5 +164,21 @@ TEST(ParameterFile, HostileFilesAreOneErrorNamingFileAndField) {
   EXPECT_EQ(read_parameter_file((dir / "nested.json").string()).at("initial_pose.y"), "2");
 }
 
+// A parameter file is one YAML document, a .json file is JSON, and a list is the value of a parameter that takes
+// several: the forms yaml-cpp would otherwise read into something else.
+TEST(ParameterFile, StrictFormsAreOneErrorNamingTheFile) {
+  TempDir dir;
+  std::string e = file_error(dir, "two.yaml", "particles: 100\n---\nparticles: 5\n");
+  EXPECT_NE(e.find("two.yaml: holds 2 YAML documents"), std::string::npos) << e;
+  e = file_error(dir, "comma.json", R"({"particles": 100,})");
+  EXPECT_NE(e.find("comma.json: not valid JSON"), std::string::npos) << e;
+  EXPECT_EQ(file_error(dir, "comma.yaml", "{particles: 100,}"), "") << "YAML's flow style allows it";
+  e = file_error(dir, "one.json", R"({"sigma_hit": [1]})");
+  EXPECT_NE(e.find("one.json: sigma_hit: a list of 1 items"), std::string::npos) << e;
+  e = file_error(dir, "none.yaml", "ignore_imu: []\n");
+  EXPECT_NE(e.find("none.yaml: ignore_imu: a list of 0 items"), std::string::npos) << e;
+  EXPECT_EQ(file_error(dir, "band.json", R"({"init_height_band": [0.2, 1.5], "init": [1, 2, 0, 0, 0, 0]})"), "");
+}
+
 }  // namespace
 }  // namespace tsdf_mcl
