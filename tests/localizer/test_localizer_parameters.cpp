@@ -180,5 +180,23 @@ TEST(ParameterFile, StrictFormsAreOneErrorNamingTheFile) {
   EXPECT_EQ(file_error(dir, "band.json", R"({"init_height_band": [0.2, 1.5], "init": [1, 2, 0, 0, 0, 0]})"), "");
 }
 
+TEST(LocalizerParameters, TypesAreCheckedValueByValue) {
+  EXPECT_NO_THROW(check_parameter_types({{"particles", "100"}, {"min_particles", "900000"}, {"sigma_hit", "0.2"}}))
+      << "a value of the right kind passes, whatever the others (min_particles beyond max_particles)";
+  const std::vector<std::pair<std::string, std::string>> wrong = {
+      {"particles", "many"}, {"particles", "true"},   {"sigma_hit", "1,2"},      {"ignore_imu", "7"},
+      {"backend", "cuda"},   {"init", "1,2,3"},       {"init_height_band", "1"}, {"update_min_a", "fast"},
+      {"motion_model", "x"}, {"laser_sigma_hit", "w"}};
+  for (const auto& [name, value] : wrong) {
+    try {
+      check_parameter_types({{"seed", "1"}, {name, value}});
+      ADD_FAILURE() << name << " = " << value << " passed";
+    } catch (const Error& e) {
+      const std::string canonical = name == "laser_sigma_hit" ? "sigma_hit" : name;
+      EXPECT_NE(std::string(e.what()).find(canonical), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsdf_mcl
