@@ -5,12 +5,16 @@ and nothing crashes the interpreter. The sanitizer build runs this file under AS
 TSDF_MCL_HYPOTHESIS_EXAMPLES sets the examples per entry point (default 60)."""
 import os
 import pathlib
+import tempfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
+
+# hypothesis caches what it learns about unicode beside the working directory: keep the checkout clean.
+os.environ.setdefault("HYPOTHESIS_STORAGE_DIRECTORY", os.path.join(tempfile.gettempdir(), "tsdf_mcl_hypothesis"))
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra import numpy as hnp  # noqa: E402
 
 import tsdf_mcl
 from conftest import PARAMS
