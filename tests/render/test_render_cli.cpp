@@ -99,8 +99,8 @@ TEST(RenderCli, GoodRunWritesThePngTheLibraryDraws) {
   const tsdf_mcl::MapRaster raster(tsdf_mcl::load_map(dir / "room.tsdf"), {});
   std::vector<tsdf_mcl::TrajectoryOverlay> trajectories(2);
   // As the command draws them (docs: a wide translucent ground truth, each estimate in the palette's first colour).
-  trajectories[0] = {"ground truth", tsdf_mcl::Dataset::open(dir / "data").poses(), tsdf_mcl::colors::kBlack, 7.0f,
-                     0.3f, false};
+  trajectories[0] = {
+      "ground truth", tsdf_mcl::Dataset::open(dir / "data").poses(), tsdf_mcl::colors::kBlack, 7.0f, 0.3f, false};
   trajectories[1].color = tsdf_mcl::palette_color(0);
   for (const auto& s : tsdf_mcl::read_tum(dir / "run/trajectory.tum")) trajectories[1].poses.push_back(s.pose);
   trajectories[1].label = "run (final error 0.10 m, 0.0 deg)";
