@@ -10,25 +10,19 @@
 #include <string>
 
 #include "map_test_helpers.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/atomic_file.hpp"
 
 namespace tsdf_mcl {
 namespace {
 
+using test::error_of;
+
 namespace fs = std::filesystem;
 using test::read_bytes;
 using test::TempDir;
 using test::write_bytes;
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 // A process id that no process has any more: a child that has exited and been reaped.
 pid_t dead_pid() {

@@ -7,23 +7,17 @@
 #include <string>
 
 #include "map_test_helpers.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 
 namespace tsdf_mcl {
 namespace {
 
+using test::error_of;
+
 using test::TempDir;
 using test::write_bytes;
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 const char* kIdentity = "1 0 0 0 0 1 0 0 0 0 1 0\n";
 

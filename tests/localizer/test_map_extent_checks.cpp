@@ -7,6 +7,7 @@
 #include <string>
 
 #include "filter_test_scene.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/localizer/localizer.hpp"
 #include "tsdf_mcl/localizer/map_extent_checks.hpp"
@@ -14,14 +15,7 @@
 namespace tsdf_mcl {
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 struct Scene {
   TsdfMap map = test::make_office_map();
