@@ -116,7 +116,7 @@ def run_pytest(src, files, timeout):
     failed = re.findall(r"^FAILED (\S+)", result.stdout, re.M)
     if result.returncode != 0 and not failed:
         return [f"(pytest exit {result.returncode}: {result.stdout.strip().splitlines()[-1:]})"]
-    return [f.split("/python/tests/")[-1] for f in failed]
+    return [re.sub(r"^.*python/tests/", "", f) for f in failed]
 
 
 def selection(mutant):
