@@ -64,6 +64,8 @@ inline std::string printable_name(const std::string& name) {
   }
   return name.size() > 200 ? out + "..." : out;
 }
+// The same in single quotes: how errors name frames.
+inline std::string quoted_name(const std::string& name) { return "'" + printable_name(name) + "'"; }
 
 // Values as decoders check them, each throwing Error("WHAT: ITEM ...") naming the message and the field: a number
 // that is not finite; a quaternion (x, y, z, w) not of unit length within 1e-2 (zero quaternions, the "unknown" of

@@ -19,7 +19,7 @@ std::string seconds(double t) {
   return buf;
 }
 
-std::string in_quotes(const std::string& s) { return "'" + msg::printable_name(s) + "'"; }
+using msg::quoted_name;
 std::string shown(const std::string& s) { return msg::printable_name(s); }
 
 // Enough bytes of a PointCloud2 message for its header whatever its frame_id (within reason): a store on disk reads
@@ -197,8 +197,8 @@ class ContentsReader {
     if (k == 0) {
       cloud_frame_ = h.frame_id;
     } else if (h.frame_id != cloud_frame_) {
-      throw Error(message_name(out_.points_topic, k) + " is in frame " + in_quotes(h.frame_id) +
-                  ", the first scan in " + in_quotes(cloud_frame_));
+      throw Error(message_name(out_.points_topic, k) + " is in frame " + quoted_name(h.frame_id) +
+                  ", the first scan in " + quoted_name(cloud_frame_));
     }
     const double t = h.stamp();
     if (!stamps_.empty() && !(t > stamps_.back())) {
@@ -226,8 +226,8 @@ class ContentsReader {
       series.parent = m.header.frame_id;
       series.child = child;
     } else if (m.header.frame_id != series.parent || child != series.child) {
-      throw Error(what + " is " + in_quotes(m.header.frame_id) + " -> " + in_quotes(child) + ", the first message " +
-                  in_quotes(series.parent) + " -> " + in_quotes(series.child));
+      throw Error(what + " is " + quoted_name(m.header.frame_id) + " -> " + quoted_name(child) +
+                  ", the first message " + quoted_name(series.parent) + " -> " + quoted_name(series.child));
     }
     series.samples.emplace_back(m.header.stamp(), m.pose);
   }
@@ -243,13 +243,14 @@ class ContentsReader {
   void find_odometry_and_truth() {
     // Odometry: a topic, or tf odom_frame -> base_frame.
     if (odom_series_) {
-      odometry_note_ = "odometry from " + odom_series_->topic + " (" + in_quotes(odom_series_->parent) + " -> " +
-                       in_quotes(odom_series_->child) + ")";
+      odometry_note_ = "odometry from " + odom_series_->topic + " (" + quoted_name(odom_series_->parent) + " -> " +
+                       quoted_name(odom_series_->child) + ")";
     } else if (tree_.has_frame(options_.odom_frame)) {
       odom_from_tf_ = true;
-      odometry_note_ = "odometry from tf " + in_quotes(options_.odom_frame) + " -> " + in_quotes(options_.base_frame);
+      odometry_note_ =
+          "odometry from tf " + quoted_name(options_.odom_frame) + " -> " + quoted_name(options_.base_frame);
     } else {
-      out_.missing_odometry = "bag " + name_ + " has no odometry: no tf frame " + in_quotes(options_.odom_frame) +
+      out_.missing_odometry = "bag " + name_ + " has no odometry: no tf frame " + quoted_name(options_.odom_frame) +
                               " (--odom_frame) and no --odom_topic";
     }
     if (!truth_) out_.missing_poses = "bag " + name_ + " has no ground truth (--ground_truth_topic)";
@@ -333,11 +334,11 @@ class ContentsReader {
 
   void summarize() {
     out_.summary = "bag " + name_ + ": " + std::to_string(out_.times.size()) + " scans on " + out_.points_topic +
-                   " (frame " + in_quotes(cloud_frame_) + ", " + seconds(out_.times.front()) + ".." +
+                   " (frame " + quoted_name(cloud_frame_) + ", " + seconds(out_.times.front()) + ".." +
                    seconds(out_.times.back()) + " s); " + (odometry_note_.empty() ? "no odometry" : odometry_note_) +
                    "; " +
-                   (truth_ ? "ground truth from " + truth_->topic + " (" + in_quotes(truth_->parent) + " -> " +
-                                 in_quotes(truth_->child) + ")"
+                   (truth_ ? "ground truth from " + truth_->topic + " (" + quoted_name(truth_->parent) + " -> " +
+                                 quoted_name(truth_->child) + ")"
                            : "no ground truth") +
                    imu_note_;
     if (before_ + after_ > 0) {
