@@ -3,8 +3,8 @@
 #
 #   bash tools/fuzz.sh [SECONDS] [NAME...]     default: 20 s each, every harness (CI); e.g. 600 map_file
 #
-# Names: map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages bag (fuzz/fuzz_targets.hpp;
-# bag where the build has ROS bag support). The corpus each run grows is
+# Names: map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages cdr mcap bag
+# (fuzz/fuzz_targets.hpp; bag where the build has ROS 1 bag support). The corpus each run grows is
 # kept in build/asan/fuzz-corpus/NAME (so longer runs resume); inputs that crash, hang (> 20 s) or exceed 2.5 GB land
 # in build/asan/fuzz-findings/NAME/ and the script fails. Copy each into fuzz/regressions/NAME/ once fixed: the test
 # suite then runs it in every build (FuzzInputs).
@@ -14,7 +14,7 @@ seconds=${1:-20}
 shift || true
 names=("$@")
 if [ ${#names[@]} -eq 0 ]; then
-  names=(map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages)
+  names=(map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages cdr mcap)
   [ -f /usr/include/rosbag/bag.h ] && names+=(bag)
 fi
 

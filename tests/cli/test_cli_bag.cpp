@@ -1,11 +1,13 @@
-// Bags on the command line: simulate --bag writes one, localize / build-map / evaluate --bag read it, and a bag
-// gives what the folder dataset of the same run gives.
+// Bags on the command line: simulate --bag writes one (ROS 1, or rosbag2 MCAP and SQLite3), localize / build-map /
+// evaluate --bag read it, and a bag gives what the folder dataset of the same run gives.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "cli_test_support.hpp"
+#include "map_test_helpers.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 
 #if TSDF_MCL_HAVE_ROSBAG
@@ -23,6 +25,18 @@ using test::CliResult;
 using test::expect_one_line_error;
 using test::run_cli;
 using test::TempDir;
+
+// The localize command of the bag tests: a small filter from the run's first true pose.
+std::string localize_command(const std::string& folder, const std::string& map) {
+  const Dataset d = Dataset::open(folder);
+  const Pose& p0 = d.pose(0);
+  const Eigen::Vector3d rpy = rpy_of(p0.linear());
+  char init[200];
+  std::snprintf(init, sizeof(init), " --init %.6f,%.6f,%.6f,%.6f,%.6f,%.6f", p0.translation().x(), p0.translation().y(),
+                p0.translation().z(), rpy.x(), rpy.y(), rpy.z());
+  return "localize --map " + map + init +
+         " --backend cpu --seed 5 --particles 500 --min_particles 200 --max_particles 1000 --max_beams 128 --count 25";
+}
 
 #if TSDF_MCL_HAVE_ROSBAG
 
@@ -126,15 +140,7 @@ TEST(CliBag, LocalizeEvaluateAndBuildMapFromTheBag) {
   ASSERT_EQ(r.simulate.exit_code, 0) << r.simulate.err;
   ASSERT_TRUE(std::filesystem::exists(r.map));
   TempDir out;
-  const Dataset folder = Dataset::open(r.folder);
-  const Pose& p0 = folder.pose(0);
-  const Eigen::Vector3d rpy = rpy_of(p0.linear());
-  char init[200];
-  std::snprintf(init, sizeof(init), " --init %.6f,%.6f,%.6f,%.6f,%.6f,%.6f", p0.translation().x(), p0.translation().y(),
-                p0.translation().z(), rpy.x(), rpy.y(), rpy.z());
-  const std::string common = "localize --map " + r.map + init +
-                             " --backend cpu --seed 5 --particles 500 --min_particles 200 --max_particles 1000"
-                             " --max_beams 128 --count 25";
+  const std::string common = localize_command(r.folder, r.map);
   const CliResult from_folder = run_cli(out, common + " --dataset " + r.folder + " -o " + (out / "dir").string());
   ASSERT_EQ(from_folder.exit_code, 0) << from_folder.err;
   const CliResult from_bag = run_cli(out, common + " --bag " + r.bag + " --points points -o " + (out / "bag").string());
@@ -200,7 +206,7 @@ TEST(CliBag, BadInputFailsWithOneClearLine) {
   expect_one_line_error(dir, localize + " --dataset " + r.folder + " --points /points" + o,
                         "--points applies to --bag only");
   expect_one_line_error(dir, localize + " --bag " + (dir / "text.bag").string() + " --points /points" + o,
-                        "is not a ROS 1 bag");
+                        "is not a bag: neither a ROS 1 bag");
   expect_one_line_error(dir, localize + " --bag " + r.bag + " --points /points --odom_frame wheel_odom" + o,
                         "has no odometry: no tf frame 'wheel_odom' (--odom_frame) and no --odom_topic, which "
                         "motion_model odometry needs");
@@ -226,13 +232,118 @@ TEST(CliBag, BadInputFailsWithOneClearLine) {
 
 TEST(CliBag, BuiltWithoutBagSupportSaysSo) {
   TempDir dir;
+  test::write_bytes(dir / "run.bag", "#ROSBAG V2.0\n" + std::string(5000, '\0'));
   expect_one_line_error(dir, "localize --map m.tsdf --bag run.bag --points /points -o out",
-                        "built without ROS bag support");
-  expect_one_line_error(dir, "simulate --length 1 --bag run.bag -o " + (dir / "out").string(),
-                        "built without ROS bag support");
+                        "built without ROS 1 bag support");
+  expect_one_line_error(dir, "simulate --length 1 --bag new.bag -o " + (dir / "out").string(),
+                        "built without ROS 1 bag support");
 }
 
 #endif
+
+// The run of SimulatedRun above (seed 2, 1.5 m) as rosbag2 recordings: one MCAP file beside the folder, and one
+// SQLite3 file written by another simulate of the same seed.
+struct Ros2Run {
+  TempDir dir;
+  std::string folder, mcap, db3, map;
+  CliResult simulate, simulate_db3;
+  Ros2Run() {
+    folder = (dir / "run").string();
+    mcap = (dir / "run.mcap").string();
+    db3 = (dir / "run.db3").string();
+    map = (dir / "run.tsdf").string();
+    const std::string sim = "simulate --scene office --lidar vlp16 --route test --seed 2 --length 1.5 --bag ";
+    simulate = run_cli(dir, sim + mcap + " -o " + folder);
+    simulate_db3 = run_cli(dir, sim + db3 + " -o " + (dir / "run_db3").string());
+    if (simulate.exit_code == 0) run_cli(dir, "build-map --dataset " + folder + " --voxel 0.2 -o " + map);
+  }
+};
+
+const Ros2Run& ros2_run() {
+  static const Ros2Run r;
+  return r;
+}
+
+// The done-when of ROS 2 bags: a run written as MCAP and as SQLite3 localizes exactly as its ROS 1 bag does (byte for
+// byte the same trajectory), and as its folder does (to the folder's 9 decimals).
+TEST(CliBag, Ros2BagsLocalizeAsTheRos1BagAndTheFolder) {
+  const Ros2Run& r = ros2_run();
+  ASSERT_EQ(r.simulate.exit_code, 0) << r.simulate.err;
+  ASSERT_EQ(r.simulate_db3.exit_code, 0) << r.simulate_db3.err;
+  EXPECT_NE(r.simulate.err.find("wrote " + r.mcap), std::string::npos) << r.simulate.err;
+  TempDir out;
+  const std::string common = localize_command(r.folder, r.map);
+  std::vector<std::string> bags = {r.mcap, r.db3};
+#if TSDF_MCL_HAVE_ROSBAG
+  ASSERT_EQ(simulated_run().simulate.exit_code, 0) << simulated_run().simulate.err;
+  bags.insert(bags.begin(), simulated_run().bag);
+#endif
+  std::vector<std::string> trajectories;
+  for (std::size_t i = 0; i < bags.size(); ++i) {
+    const std::string o = (out / ("out" + std::to_string(i))).string();
+    const CliResult c = run_cli(out, common + " --bag " + bags[i] + " --points /points -o " + o);
+    ASSERT_EQ(c.exit_code, 0) << bags[i] << ": " << c.err;
+    EXPECT_NE(c.err.find("localize: bag " + bags[i] +
+                         ": 56 scans on /points (frame 'lidar', 0.050..2.800 s); "
+                         "odometry from tf 'odom' -> 'base_link'"),
+              std::string::npos)
+        << c.err;
+    trajectories.push_back(test::read_bytes(o + "/trajectory.tum"));
+    EXPECT_EQ(trajectories.back(), trajectories.front()) << bags[i] << " localizes otherwise than " << bags[0];
+  }
+  const CliResult from_folder = run_cli(out, common + " --dataset " + r.folder + " -o " + (out / "dir").string());
+  ASSERT_EQ(from_folder.exit_code, 0) << from_folder.err;
+  const std::vector<StampedPose> folder = read_tum(out / "dir/trajectory.tum");
+  const std::vector<StampedPose> bag = read_tum(out / "out0/trajectory.tum");
+  ASSERT_EQ(bag.size(), 25u);
+  ASSERT_EQ(folder.size(), bag.size());
+  for (std::size_t i = 0; i < bag.size(); ++i) {
+    EXPECT_EQ(bag[i].time, folder[i].time);
+    EXPECT_LT((bag[i].pose.matrix() - folder[i].pose.matrix()).cwiseAbs().maxCoeff(), 1e-5) << i;
+  }
+
+  // evaluate and build-map read the ground truth of a rosbag2 bag too.
+  const CliResult eval = run_cli(out, "evaluate --estimate " + (out / "out1/trajectory.tum").string() + " --bag " +
+                                          r.db3 + " --points /points --ground_truth_topic /ground_truth");
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_EQ(nlohmann::json::parse(eval.out)["scans"], 25);
+  const CliResult built = run_cli(out, "build-map --bag " + r.mcap +
+                                           " --points /points --ground_truth_topic /ground_truth --voxel 0.2 -o " +
+                                           (out / "bag.tsdf").string());
+  ASSERT_EQ(built.exit_code, 0) << built.err;
+  const CliResult info_bag = run_cli(out, "info --json " + (out / "bag.tsdf").string());
+  const CliResult info_folder = run_cli(out, "info --json " + r.map);
+  // The same scans at poses equal to 1e-9: the same map, up to voxels on the edge of a decision.
+  const auto ib = nlohmann::json::parse(info_bag.out), inf = nlohmann::json::parse(info_folder.out);
+  EXPECT_EQ(ib["allocated_blocks"], inf["allocated_blocks"]);
+  EXPECT_NEAR(ib["known_voxels"].get<double>(), inf["known_voxels"].get<double>(),
+              1e-3 * inf["known_voxels"].get<double>());
+}
+
+TEST(CliBag, Ros2BadInputFailsWithOneClearLine) {
+  const Ros2Run& r = ros2_run();
+  ASSERT_EQ(r.simulate.exit_code, 0) << r.simulate.err;
+  TempDir dir;
+  const std::string o = " -o " + (dir / "out").string();
+  const std::string localize = "localize --map " + r.map + " --backend cpu";
+  expect_one_line_error(
+      dir, localize + " --bag " + r.mcap + " --points /odom" + o,
+      "topic /odom (the points topic) carries nav_msgs/msg/Odometry, not sensor_msgs/msg/PointCloud2");
+  expect_one_line_error(dir, localize + " --bag " + r.db3 + " --points /velodyne" + o,
+                        "has no topic /velodyne (the points topic); its sensor_msgs/msg/PointCloud2 topics: /points");
+  test::write_bytes(dir / "cut.mcap", test::read_bytes(r.mcap).substr(0, 30));
+  expect_one_line_error(dir, localize + " --bag " + (dir / "cut.mcap").string() + " --points /points" + o,
+                        "truncated or corrupt MCAP file");
+  test::write_bytes(dir / "text.db3", "SQLite format 3");
+  expect_one_line_error(dir, localize + " --bag " + (dir / "text.db3").string() + " --points /points" + o,
+                        "is not a bag: neither a ROS 1 bag");
+  expect_one_line_error(dir, "simulate --length 1 --bag " + r.folder + o, "it is a folder");
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  const CliResult help = run_cli(dir, "localize --help");
+  EXPECT_NE(help.out.find("(rosbag2: its folder, or a .db3 or .mcap file; SQLite3 or MCAP, CDR)"), std::string::npos)
+      << help.out;
+  EXPECT_NE(run_cli(dir, "simulate --help").out.find("[--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER]"), std::string::npos);
+}
 
 }  // namespace
 }  // namespace tsdf_mcl

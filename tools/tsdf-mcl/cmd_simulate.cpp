@@ -4,6 +4,7 @@
 #include <memory>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -131,9 +132,10 @@ std::vector<OptionSpec> simulate_options() {
       {"motion_distortion", "", "off",
        "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
       {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
-      {"bag", "FILE.bag", "",
-       "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
-       "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
+      {"bag", "FILE", "",
+       "also write the run as a bag: FILE.bag ROS 1, FILE.mcap or FILE.db3 one rosbag2 storage file (MCAP, SQLite3), "
+       "any other name a rosbag2 folder (metadata.yaml, NAME_0.mcap); /points (frame lidar), /tf odom -> base_link, "
+       "/tf_static base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
   });
 }
 
@@ -207,7 +209,7 @@ int run_simulate(int argc, char** argv) {
       "                         [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
       "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
       "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
-      "                         [--motion_distortion] [--bag FILE.bag] -o DIR",
+      "                         [--motion_distortion] [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
       simulate_options(), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
@@ -221,9 +223,13 @@ int run_simulate(int argc, char** argv) {
   const std::string out = o.text("output");
   // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
   std::unique_ptr<BagWriter> bag;
-  if (const auto bag_file = o.maybe("bag")) {
-    check_output_file(*bag_file, "bag");
-    bag = std::make_unique<BagWriter>(*bag_file);
+  if (const auto bag_option = o.maybe("bag")) {
+    // "run/" names the folder run.
+    const std::filesystem::path bag_file = std::filesystem::path(*bag_option).filename().empty()
+                                               ? std::filesystem::path(*bag_option).parent_path()
+                                               : std::filesystem::path(*bag_option);
+    check_output_file(bag_file, "bag");
+    bag = std::make_unique<BagWriter>(bag_file);
     s.on_scan = [&](const sim::SimulatedScan& scan) {
       if (bag->scans() == 0) bag->set_base_T_sensor(scan.base_T_sensor);
       bag->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);

@@ -1,8 +1,6 @@
 // BagContents through the pipe from open_bag's child process: little-endian numbers, counted texts and lists.
 #include "bag_contents.hpp"
 
-#include <array>
-
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/little_endian.hpp"
 
@@ -37,10 +35,14 @@ class Decoder {
     pos_ += n;
     return s;
   }
+  // The 12 numbers as they were: the pipe is transport, not a reader of pose files (pose_from_kitti would
+  // orthonormalize them, and the dataset would differ by rounding from the same bag read without a child process).
   Pose pose() {
-    std::array<double, 12> v{};
-    for (double& x : v) x = f64();
-    return pose_from_kitti(v);
+    Pose p = Pose::Identity();
+    for (int row = 0; row < 3; ++row) {
+      for (int col = 0; col < 4; ++col) p.matrix()(row, col) = f64();
+    }
+    return p;
   }
   // A count of items of at least `item_bytes` each, checked against what is left.
   std::uint64_t count(std::uint64_t item_bytes) {
