@@ -14,7 +14,7 @@
 #include "tsdf_mcl/sim/route.hpp"
 #include "shapes.hpp"
 #include "tsdf_mcl/sim/traversability.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/sim/simulator.hpp"

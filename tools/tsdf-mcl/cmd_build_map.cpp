@@ -9,7 +9,7 @@
 #include "dataset_source.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/cloud_io.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/limits.hpp"

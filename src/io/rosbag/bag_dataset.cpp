@@ -27,7 +27,7 @@
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/io/isolated_call.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 #include "tsdf_mcl/io/pointcloud2.hpp"
 #include "tsdf_mcl/io/ros1_messages.hpp"
