@@ -41,7 +41,7 @@
 #include "build_budget.hpp"
 #include "grid_walk.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 namespace tsdf_mcl {
 namespace {

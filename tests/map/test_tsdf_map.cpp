@@ -4,7 +4,7 @@
 
 #include "tsdf_mcl/core/error.hpp"
 #include "map_test_helpers.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/map/map_surface.hpp"
 #include "tsdf_mcl/map/tsdf_map.hpp"
 

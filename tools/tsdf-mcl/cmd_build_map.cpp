@@ -13,8 +13,9 @@
 #include "tsdf_mcl/io/cloud_io.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/limits.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {
