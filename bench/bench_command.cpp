@@ -1,15 +1,19 @@
+#include "bench_command.hpp"
+
 #include <cstdio>
 #include <sstream>
 #include <string>
 
-#include "commands.hpp"
 #include "options.hpp"
 #include "sensor_update_bench.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 
-namespace tsdf_mcl::cli {
+namespace tsdf_mcl::bench {
+
+using cli::Options;
+using cli::OptionSpec;
 
 namespace {
 
@@ -67,8 +71,8 @@ std::vector<OptionSpec> bench_options() {
 }
 
 // The measurements the options ask for, each option checked.
-bench::BenchConfig bench_config(const Options& o) {
-  bench::BenchConfig config;
+BenchConfig bench_config(const Options& o) {
+  BenchConfig config;
   config.particle_counts.clear();
   for (double v : o.numbers("particles")) {
     if (v < 1 || v != std::floor(v)) throw Error("--particles needs positive integers");
@@ -123,17 +127,17 @@ bench::BenchConfig bench_config(const Options& o) {
 
 }  // namespace
 
-int run_bench(int argc, char** argv) {
+int run_bench_command(int argc, char** argv) {
   Options o("bench",
             "tsdf-mcl bench --map MAP --dataset DIR [--scan K] --particles 1000,10000,50000,100000 --points M "
             "[--spread local|global] [--backend cpu,vulkan] [--profile] [--loop SECONDS]",
-            bench_options(), argc, argv, 2);
+            bench_options(), argc, argv, 1);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;
   }
   o.expect_positional(0, "no positional arguments");
-  bench::BenchConfig config = bench_config(o);
+  BenchConfig config = bench_config(o);
 
   const TsdfMap map = load_map(o.text("map"));
   const Dataset dataset = Dataset::open(o.text("dataset"));
@@ -143,8 +147,8 @@ int run_bench(int argc, char** argv) {
   if (!dataset.has_poses()) throw Error("the dataset has no poses.txt (needed to place the particles)");
   config.map_name = o.text("map");
   config.scan_name = dataset.scan_path(k).string();
-  bench::run_sensor_update_bench(map, dataset.load_scan(k), dataset.pose(k), config, stdout);
+  run_sensor_update_bench(map, dataset.load_scan(k), dataset.pose(k), config, stdout);
   return 0;
 }
 
-}  // namespace tsdf_mcl::cli
+}  // namespace tsdf_mcl::bench

@@ -1,6 +1,10 @@
 // The bench command on the office fixture's map and dataset: its JSON lines, and its answers to bad input.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -137,6 +141,30 @@ TEST(CliBench, BadInputGivesOneClearError) {
   expect_one_line_error(out, "bench --map " + (out / "missing.tsdf").string() + " --dataset " + f.dataset,
                         "missing.tsdf");
   expect_one_line_error(out, "bench --map " + f.map + " --dataset " + (out / "nowhere").string(), "nowhere");
+}
+
+// bench is the benchmark program beside tsdf-mcl (bench/), run in the program's place: the same help; a tsdf-mcl
+// without it says so in one line.
+TEST(CliBench, RunsTheBenchmarkProgramBesideIt) {
+  TempDir out;
+  const CliResult help = run_cli(out, "bench --help");
+  ASSERT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_NE(help.out.find("tsdf-mcl bench --map MAP --dataset DIR"), std::string::npos) << help.out;
+  const std::filesystem::path bench = std::filesystem::path(test::cli_program()).parent_path() / "tsdf-mcl-bench";
+  const int direct = std::system(("'" + bench.string() + "' --help >'" + (out / "help.txt").string() + "'").c_str());
+  ASSERT_TRUE(WIFEXITED(direct) && WEXITSTATUS(direct) == 0);
+  EXPECT_EQ(test::read_bytes(out / "help.txt"), help.out);
+
+  std::filesystem::copy_file(test::cli_program(), out / "tsdf-mcl");
+  const int alone = std::system(
+      ("'" + (out / "tsdf-mcl").string() + "' bench --help 2>'" + (out / "err.txt").string() + "'").c_str());
+  EXPECT_TRUE(WIFEXITED(alone) && WEXITSTATUS(alone) == 1);
+  const std::string err = test::read_bytes(out / "err.txt");
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_NE(err.find("tsdf-mcl bench: error: cannot run the benchmark program " + (out / "tsdf-mcl-bench").string() +
+                     ": No such file or directory"),
+            std::string::npos)
+      << err;
 }
 
 }  // namespace
