@@ -16,6 +16,7 @@
 #include "tsdf_mcl/io/bag_writer.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/pointcloud2.hpp"
+#include "tsdf_mcl/io/ros_message_fields.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;
@@ -32,24 +33,13 @@ ros::Time ros_time(double t) {
 
 geometry_msgs::Transform transform_msg(const Pose& p) {
   geometry_msgs::Transform t;
-  t.translation.x = p.translation().x();
-  t.translation.y = p.translation().y();
-  t.translation.z = p.translation().z();
-  const Eigen::Quaterniond q(p.linear());
-  t.rotation.x = q.x();
-  t.rotation.y = q.y();
-  t.rotation.z = q.z();
-  t.rotation.w = q.w();
+  fill_pose_fields(p, t.translation, t.rotation);
   return t;
 }
 
 geometry_msgs::Pose pose_msg(const Pose& p) {
-  const geometry_msgs::Transform t = transform_msg(p);
   geometry_msgs::Pose out;
-  out.position.x = t.translation.x;
-  out.position.y = t.translation.y;
-  out.position.z = t.translation.z;
-  out.orientation = t.rotation;
+  fill_pose_fields(p, out.position, out.orientation);
   return out;
 }
 
@@ -141,26 +131,11 @@ void BagWriter::add_scan(double time, const PointCloud& cloud, const std::vector
     w.write("/tf_static", stamp, statics, true);
   }
 
-  const EncodedPointCloud2 encoded = encode_pointcloud2(cloud, rings);
   sensor_msgs::PointCloud2 msg;
   msg.header.seq = static_cast<std::uint32_t>(w.scans);
   msg.header.stamp = stamp;
   msg.header.frame_id = o.cloud_frame;
-  msg.height = encoded.layout.height;
-  msg.width = encoded.layout.width;
-  for (const PointField& f : encoded.layout.fields) {
-    sensor_msgs::PointField field;
-    field.name = f.name;
-    field.offset = f.offset;
-    field.datatype = f.datatype;
-    field.count = f.count;
-    msg.fields.push_back(field);
-  }
-  msg.is_bigendian = encoded.layout.is_bigendian;
-  msg.point_step = encoded.layout.point_step;
-  msg.row_step = encoded.layout.row_step;
-  msg.data = encoded.data;
-  msg.is_dense = encoded.layout.is_dense;
+  fill_pointcloud2_message(encode_pointcloud2(cloud, rings), msg);
   w.write(o.points_topic, stamp, msg);
 
   if (odom_T_sensor) {
