@@ -12,7 +12,7 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/bag_writer.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/sim/simulator.hpp"
@@ -199,6 +199,52 @@ sim::SimulationOptions simulation_options(const Options& o) {
   return s;
 }
 
+// --bag: the run written as a bag too, beside the run and scan by scan; it appears under its name only once the run
+// completes.
+std::unique_ptr<BagWriter> open_bag(const Options& o, sim::SimulationOptions& s) {
+  const auto bag_option = o.maybe("bag");
+  if (!bag_option) return nullptr;
+  // "run/" names the folder run.
+  const std::filesystem::path bag_file = std::filesystem::path(*bag_option).filename().empty()
+                                             ? std::filesystem::path(*bag_option).parent_path()
+                                             : std::filesystem::path(*bag_option);
+  check_output_file(bag_file, "bag");
+  auto bag = std::make_unique<BagWriter>(bag_file);
+  s.on_scan = [writer = bag.get()](const sim::SimulatedScan& scan) {
+    if (writer->scans() == 0) writer->set_base_T_sensor(scan.base_T_sensor);
+    writer->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);
+  };
+  return bag;
+}
+
+// What runs: the scene, the LiDAR on its platform, the route, the seed and the output folder.
+std::string run_line(const Options& o, const sim::SimulationOptions& s) {
+  char line[512];
+  std::snprintf(line, sizeof(line), "scene %s, lidar %s on %s, %s route (seed %llu) -> %s", s.scene.c_str(),
+                s.lidar.c_str(), o.text("platform").c_str(), o.text("route").c_str(),
+                static_cast<unsigned long long>(s.seed), o.text("output").c_str());
+  return line;
+}
+
+// The closing lines: counts, the route, the landmark's first sight, the bag.
+void report_run(Progress& progress, const sim::SimulationSummary& r, const Options& o, const BagWriter* bag) {
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "%zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s", r.scans,
+                r.points, r.route_length_m, r.duration_s, r.traversable_area_m2, r.wall_time_s);
+  progress.summary(line);
+  if (r.landmark_first_seen_scan) {
+    progress.note("the landmark is first in view in scan " + std::to_string(*r.landmark_first_seen_scan) +
+                  " (landmark_points.txt)");
+  } else if (r.has_landmark) {
+    progress.note("the landmark is in view in no scan");
+  }
+  if (bag) {
+    progress.summary("wrote " + o.text("bag") + " (" + std::to_string(bag->scans()) +
+                     " scans on /points; tf odom -> base_link -> lidar; /ground_truth)");
+  }
+}
+
 }  // namespace
 
 int run_simulate(int argc, char** argv) {
@@ -219,52 +265,16 @@ int run_simulate(int argc, char** argv) {
   if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
 
   sim::SimulationOptions s = simulation_options(o);
-  const std::string route = o.text("route");
-  const std::string out = o.text("output");
-  // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
-  std::unique_ptr<BagWriter> bag;
-  if (const auto bag_option = o.maybe("bag")) {
-    // "run/" names the folder run.
-    const std::filesystem::path bag_file = std::filesystem::path(*bag_option).filename().empty()
-                                               ? std::filesystem::path(*bag_option).parent_path()
-                                               : std::filesystem::path(*bag_option);
-    check_output_file(bag_file, "bag");
-    bag = std::make_unique<BagWriter>(bag_file);
-    s.on_scan = [&](const sim::SimulatedScan& scan) {
-      if (bag->scans() == 0) bag->set_base_T_sensor(scan.base_T_sensor);
-      bag->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);
-    };
-  }
-
+  const std::unique_ptr<BagWriter> bag = open_bag(o, s);
   Progress progress("simulate", verbosity_of(o), "scans");
   s.progress = [&](std::size_t done, std::size_t total) {
     // Announced once the scene and route are ready, so that bad input ends with a single error line.
-    if (done == 1) {
-      char line[512];
-      std::snprintf(line, sizeof(line), "scene %s, lidar %s on %s, %s route (seed %llu) -> %s", s.scene.c_str(),
-                    s.lidar.c_str(), o.text("platform").c_str(), route.c_str(), static_cast<unsigned long long>(s.seed),
-                    out.c_str());
-      progress.note(line);
-    }
+    if (done == 1) progress.note(run_line(o, s));
     progress.update(done, total, "");
   };
-  const sim::SimulationSummary r = sim::simulate(s, out);
+  const sim::SimulationSummary r = sim::simulate(s, o.text("output"));
   if (bag) bag->close();
-  char line[512];
-  std::snprintf(line, sizeof(line),
-                "%zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s", r.scans,
-                r.points, r.route_length_m, r.duration_s, r.traversable_area_m2, r.wall_time_s);
-  progress.summary(line);
-  if (r.landmark_first_seen_scan) {
-    progress.note("the landmark is first in view in scan " + std::to_string(*r.landmark_first_seen_scan) +
-                  " (landmark_points.txt)");
-  } else if (r.has_landmark) {
-    progress.note("the landmark is in view in no scan");
-  }
-  if (bag) {
-    progress.summary("wrote " + o.text("bag") + " (" + std::to_string(bag->scans()) +
-                     " scans on /points; tf odom -> base_link -> lidar; /ground_truth)");
-  }
+  report_run(progress, r, o, bag.get());
   return 0;
 }
 

@@ -22,7 +22,7 @@
 #include "../bag/message_codec.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/limits.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/io/isolated_call.hpp"
 
 namespace tsdf_mcl::bag_io {

@@ -13,6 +13,7 @@
 
 #include "../bag/bag_formats.hpp"
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/ros_message_fields.hpp"
 
 namespace tsdf_mcl::bag_io {
 namespace fs = std::filesystem;
@@ -37,24 +38,13 @@ std_msgs::Header header_msg(const msg::Header& h) {
 
 geometry_msgs::Transform transform_msg(const Pose& p) {
   geometry_msgs::Transform t;
-  t.translation.x = p.translation().x();
-  t.translation.y = p.translation().y();
-  t.translation.z = p.translation().z();
-  const Eigen::Quaterniond q(p.linear());
-  t.rotation.x = q.x();
-  t.rotation.y = q.y();
-  t.rotation.z = q.z();
-  t.rotation.w = q.w();
+  fill_pose_fields(p, t.translation, t.rotation);
   return t;
 }
 
 geometry_msgs::Pose pose_msg(const Pose& p) {
-  const geometry_msgs::Transform t = transform_msg(p);
   geometry_msgs::Pose out;
-  out.position.x = t.translation.x;
-  out.position.y = t.translation.y;
-  out.position.z = t.translation.z;
-  out.orientation = t.rotation;
+  fill_pose_fields(p, out.position, out.orientation);
   return out;
 }
 
@@ -98,21 +88,7 @@ class Ros1Sink : public BagSink {
                     const EncodedPointCloud2& cloud) override {
     sensor_msgs::PointCloud2 m;
     m.header = header_msg(header);
-    m.height = cloud.layout.height;
-    m.width = cloud.layout.width;
-    for (const PointField& f : cloud.layout.fields) {
-      sensor_msgs::PointField field;
-      field.name = f.name;
-      field.offset = f.offset;
-      field.datatype = f.datatype;
-      field.count = f.count;
-      m.fields.push_back(field);
-    }
-    m.is_bigendian = cloud.layout.is_bigendian;
-    m.point_step = cloud.layout.point_step;
-    m.row_step = cloud.layout.row_step;
-    m.data = cloud.data;
-    m.is_dense = cloud.layout.is_dense;
+    fill_pointcloud2_message(cloud, m);
     write(topic, time, m);
   }
 

@@ -9,7 +9,7 @@
 #include "metadata.hpp"
 #include "sqlite_writer.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/ros2_messages.hpp"
 
 namespace tsdf_mcl::rosbag2 {

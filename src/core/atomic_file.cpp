@@ -1,4 +1,4 @@
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

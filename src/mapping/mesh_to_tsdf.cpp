@@ -16,7 +16,7 @@
 #include "block_face.hpp"
 #include "build_budget.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 namespace tsdf_mcl {
 namespace {

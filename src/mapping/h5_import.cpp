@@ -15,9 +15,10 @@
 
 #include "build_budget.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/io/isolated_call.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -7,7 +7,7 @@
 
 #include "tsdf_mcl/cpu/cpu_evaluator.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "sensor_test_support.hpp"
 #include "checkout_paths.hpp"
 

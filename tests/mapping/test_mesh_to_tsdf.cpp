@@ -5,7 +5,7 @@
 
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/io/mesh.hpp"
 
 using Eigen::Vector3f;

@@ -18,10 +18,11 @@
 #include <queue>
 #include <unordered_map>
 #include <vector>
+#include "block_grid.hpp"
 #include "build_budget.hpp"
 #include "grid_walk.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 namespace tsdf_mcl::cloud_build {
 
@@ -29,8 +30,6 @@ using Eigen::Vector3f;
 using Eigen::Vector3i;
 using grid::walk_until;
 
-constexpr int B = TsdfMap::kBlockSize;
-constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 // Working points stay within +-2^23 voxels (a 63-bit block key with room for neighbours; inside the map's +-2^24).
 constexpr std::int32_t kMaxPointVoxel = (1 << 23) - 64;

@@ -38,10 +38,11 @@
 #include <utility>
 #include <vector>
 
+#include "block_grid.hpp"
 #include "build_budget.hpp"
 #include "grid_walk.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -50,8 +51,6 @@ using Eigen::Vector3f;
 using Eigen::Vector3i;
 using grid::walk;
 
-constexpr int B = TsdfMap::kBlockSize;
-constexpr int kVoxels = TsdfMap::kVoxelsPerBlock;
 constexpr std::uint32_t kNoBlock = 0xFFFFFFFFu;
 constexpr std::uint32_t kCarvedBlock = 0xFFFFFFFEu;  // crossed by rays, no band voxel: free as a whole
 // Wide enough that a slab holds several steps of a block walk, narrow enough to balance a few dozen threads.

@@ -3,7 +3,7 @@
 // signs on the faces of the surface blocks around a region.
 #include <Eigen/Core>
 
-#include "tsdf_mcl/map/tsdf_map.hpp"
+#include "block_grid.hpp"
 
 namespace tsdf_mcl {
 
@@ -11,7 +11,6 @@ namespace tsdf_mcl {
 // -1) is the step along `axis` from that block to this one, so +1 gives this block's layer 0 and -1 its last.
 template <typename F>
 void for_each_facing_voxel(int axis, int dir, F&& f) {
-  constexpr int B = TsdfMap::kBlockSize;
   Eigen::Vector3i l;
   l[axis] = dir > 0 ? 0 : B - 1;
   for (int i = 0; i < B; ++i) {

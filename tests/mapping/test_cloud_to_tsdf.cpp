@@ -7,7 +7,7 @@
 #include <random>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 using Eigen::Vector3f;
 using Eigen::Vector3i;

@@ -1,4 +1,4 @@
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -6,7 +6,7 @@
 
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 
 using Eigen::Vector3i;
 using tsdf_mcl::Error;

@@ -7,7 +7,7 @@
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 
 using Eigen::Vector3d;
 using Eigen::Vector3f;
