@@ -227,7 +227,7 @@ void register_dataset_classes(py::module_& m) {
       .def_property_readonly("summary", [](const PyDataset& d) { return d.dataset->summary(); });
 }
 
-// A ROS 1 bag as a dataset; the GIL is released while the bag is indexed.
+// A bag (ROS 1, or a rosbag2 folder, .db3 or .mcap) as a dataset; the GIL is released while the bag is indexed.
 PyDataset read_bag(const py::handle& path, const py::handle& points_topic, const py::handle& odom_frame,
                    const py::handle& base_frame, const py::handle& odom_topic, const py::handle& ground_truth_topic,
                    const py::handle& imu_topic, const py::handle& start, const py::handle& stride,
@@ -274,9 +274,9 @@ void register_dataset(py::module_& m) {
         py::arg("base_frame") = py::str("base_link"), py::arg("odom_topic") = py::str(""),
         py::arg("ground_truth_topic") = py::str(""), py::arg("imu_topic") = py::str(""), py::arg("start") = py::int_(0),
         py::arg("stride") = py::int_(1), py::arg("count") = py::int_(0),
-        "A ROS 1 bag as a dataset (docs/bags.md): the PointCloud2 scans of points_topic, odometry from tf or "
-        "odom_topic, ground truth and IMU from their topics.");
-  m.attr("bag_support") = Dataset::bag_support();
+        "A bag as a dataset (docs/bags.md): ROS 1, or ROS 2 (a rosbag2 folder, .db3 or .mcap file); the PointCloud2 "
+        "scans of points_topic, odometry from tf or odom_topic, ground truth and IMU from their topics.");
+  m.attr("ros1_bag_support") = Dataset::ros1_bag_support();
 
   m.def("evaluate", &evaluate, py::arg("times"), py::arg("poses"), py::arg("ground_truth"),
         py::arg("converged") = py::none(), py::arg("max_translation_error") = py::float_(0.3),

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/one_line.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
