@@ -6,6 +6,8 @@
 #   bash tools/demo.sh [--particles N] [--backend auto|vulkan|cpu] [--seed N] [--lidar vlp16|os0-64]
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=build_env.sh
+source tools/build_env.sh  # the build the test command reuses
 
 particles=50000
 backend=auto
@@ -26,8 +28,7 @@ step() { printf '==> %s\n' "$*" >&2; }
 step "1/7 installing Debian packages (if missing)"
 bash tools/setup.sh
 step "2/7 building (Release)"
-cmake --preset release >/dev/null
-cmake --build --preset release -j "$(nproc)"
+build_preset release
 cli=build/release/tools/tsdf-mcl
 out=demo-out
 # A rerun starts over: the simulator refuses to write scans into a dataset that exists. Only what this script

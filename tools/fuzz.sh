@@ -18,7 +18,9 @@ if [ ${#names[@]} -eq 0 ]; then
   [ -f /usr/include/rosbag/bag.h ] && names+=(bag)
 fi
 
-cmake --preset asan >/dev/null
+# shellcheck source=build_env.sh
+source tools/build_env.sh
+configure_build asan
 cmake --build --preset asan -j "$(nproc)" --target "${names[@]/#/fuzz_}"
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 status=0

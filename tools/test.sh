@@ -8,10 +8,12 @@
 #                               build's subset under qemu-aarch64 (tools/test_arm64.sh, docs/deploy.md); the suite
 #                               built with clang, ASan and UBSan (any finding fails the run); every fuzzer for a
 #                               short, bounded time (TSDF_MCL_FUZZ_SECONDS, default 20).
-# Compilers run through ccache where setup.sh installed it, so a rebuild of unchanged sources (another clone, the
-# sanitizer build after a clean checkout) costs little.
+# The build is configured as tools/demo.sh configures it (tools/build_env.sh: compilers through ccache where setup.sh
+# installed it), so that after the demo only what changed is built.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=build_env.sh
+source tools/build_env.sh
 
 full=0
 case "${1:-}" in
@@ -23,24 +25,14 @@ jobs="$(nproc)"
 preset=release
 [ "$full" = 1 ] && preset=ci
 
-if command -v ccache >/dev/null; then
-  # CCACHE_NOHASHDIR: the sanitizer build has debug info (-g), for which ccache would otherwise hash the build folder,
-  # so that a checkout elsewhere (CI's clean clone) missed the cache and rebuilt it whole.
-  export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
-fi
-
 step() { printf '\n==> test.sh: %s (%s)\n' "$1" "$(date -u +%H:%M:%S)" >&2; }
 
 step_setup() { bash tools/setup.sh; }
 step_format() { bash tools/format.sh --check; }
-step_build() {
-  cmake --preset "$preset" >/dev/null
-  cmake --build --preset "$preset" -j "$jobs"
-}
+step_build() { build_preset "$preset"; }
 step_suite() { ctest --preset "$preset" -j "$jobs" --timeout 900; }
 step_asan() {
-  cmake --preset asan >/dev/null
-  cmake --build --preset asan -j "$jobs"
+  build_preset asan
   # The end-to-end localization runs (EndToEnd.*, RealData.*, the ROS node's RosNode.*) take 5 to more than 15
   # minutes each under the sanitizers (docs/robustness.md); their code paths are covered by the smaller filter tests,
   # and they run in the suite above.
@@ -61,6 +53,7 @@ step_asan() {
     ctest --preset asan -j "$jobs" --timeout 900 -E "$asan_skip"
 }
 step_arm64() {
+  tsdf_mcl_build_env
   bash tools/setup.sh --arm64
   bash tools/test_arm64.sh
 }

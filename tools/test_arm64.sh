@@ -29,12 +29,11 @@ fi
 export TSDF_MCL_ARM64_SYSROOT=$sysroot
 
 if [ "${1:-}" != "--no-build" ]; then
-  if command -v ccache >/dev/null; then
-    export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD} CMAKE_CXX_COMPILER_LAUNCHER=ccache CMAKE_C_COMPILER_LAUNCHER=ccache
-  fi
+  # shellcheck source=build_env.sh
+  source tools/build_env.sh
   # Compile only the test sources of the subset (set TSDF_MCL_ARM64_FILTER and TSDF_MCL_ARM64_SOURCES together).
   sources=${TSDF_MCL_ARM64_SOURCES:-'/test_(cpu_evaluator|vulkan_evaluator|weight_reduction|filter_(subset_first|motion|resampling|kld|pose_estimate)|tsdf_map|map_file|scan_preprocessing|pointcloud2|transform_tree)\.cpp$'}
-  cmake --preset arm64 -DTSDF_MCL_TEST_SOURCES_REGEX="$sources" >/dev/null
+  configure_build arm64 -DTSDF_MCL_TEST_SOURCES_REGEX="$sources"
   nice -n 10 cmake --build --preset arm64 --target tsdf_mcl_tests tsdf-mcl
 fi
 tests=build/arm64/tests/tsdf_mcl_tests

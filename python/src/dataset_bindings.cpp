@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "arguments.hpp"
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
@@ -40,12 +41,13 @@ struct DatasetIterator {
   std::size_t next = 0;
 };
 
-PyDataset select(std::shared_ptr<const Dataset> dataset, std::size_t start, std::size_t stride, std::size_t count) {
-  if (stride == 0) throw BadArgument("stride must be at least 1");
+PyDataset select(std::shared_ptr<const Dataset> dataset, const py::handle& start, const py::handle& stride,
+                 const py::handle& count) {
   ScanSelection s;
-  s.start = start;
-  s.stride = stride;
-  s.count = count;
+  s.start = count_from(start, "start");
+  s.stride = count_from(stride, "stride");
+  s.count = count_from(count, "count");
+  if (s.stride == 0) throw BadArgument("stride must be at least 1");
   PyDataset d;
   d.indices = s.indices(dataset->size());
   d.dataset = std::move(dataset);
@@ -123,8 +125,9 @@ py::dict metrics_dict(const TrajectoryMetrics& m, const MetricsOptions& mo) {
 }
 
 py::dict evaluate(const py::handle& times, const py::handle& poses, const py::handle& ground_truth,
-                  const py::object& converged, double max_translation_error, double max_rotation_error_deg,
-                  double time_tolerance, double false_convergence_translation, double false_convergence_rotation_deg) {
+                  const py::object& converged, const py::handle& max_translation_error,
+                  const py::handle& max_rotation_error_deg, const py::handle& time_tolerance,
+                  const py::handle& false_convergence_translation, const py::handle& false_convergence_rotation_deg) {
   const std::vector<double> t = values_from(times, "times");
   const std::vector<Pose> p = poses_from(poses, "poses");
   if (t.size() != p.size()) {
@@ -149,18 +152,23 @@ py::dict evaluate(const py::handle& times, const py::handle& poses, const py::ha
     throw BadArgument("ground_truth must be a Dataset with poses or a tuple (times, poses)");
   }
   MetricsOptions mo;
-  mo.max_translation_error = max_translation_error;
-  mo.max_rotation_error = max_rotation_error_deg / kDeg;
-  mo.time_tolerance = time_tolerance;
-  mo.false_convergence_translation = false_convergence_translation;
-  mo.false_convergence_rotation = false_convergence_rotation_deg / kDeg;
+  mo.max_translation_error = number_from(max_translation_error, "max_translation_error");
+  mo.max_rotation_error = number_from(max_rotation_error_deg, "max_rotation_error_deg") / kDeg;
+  mo.time_tolerance = number_from(time_tolerance, "time_tolerance");
+  mo.false_convergence_translation = number_from(false_convergence_translation, "false_convergence_translation");
+  mo.false_convergence_rotation = number_from(false_convergence_rotation_deg, "false_convergence_rotation_deg") / kDeg;
   if (!(mo.max_translation_error > 0.0) || !(mo.max_rotation_error > 0.0) || !(mo.time_tolerance >= 0.0) ||
       !(mo.false_convergence_translation > 0.0) || !(mo.false_convergence_rotation > 0.0)) {
     throw BadArgument("thresholds must be positive and the time tolerance non-negative");
   }
   std::vector<bool> claims;
   if (!converged.is_none()) {
-    for (const py::handle c : converged) claims.push_back(py::cast<bool>(c));
+    if (!py::isinstance<py::iterable>(converged) || py::isinstance<py::str>(converged)) {
+      throw BadType("converged must be a list of bools, not " + type_name(converged));
+    }
+    for (const py::handle c : converged) {
+      claims.push_back(flag_from(c, ("converged[" + std::to_string(claims.size()) + "]").c_str()));
+    }
     if (claims.size() != t.size()) {
       throw BadArgument("converged holds " + std::to_string(claims.size()) + " flags for " + std::to_string(t.size()) +
                         " estimates");
@@ -186,11 +194,18 @@ void register_dataset_classes(py::module_& m) {
       m, "Dataset", "The selected scans of a dataset folder or a ROS 1 bag; iterating yields (stamp, points, odom).")
       .def("__len__", [](const PyDataset& d) { return d.indices.size(); })
       .def("__getitem__",
-           [](const PyDataset& d, long long k) {
-             const auto n = static_cast<long long>(d.indices.size());
-             if (k < 0) k += n;
-             if (k < 0 || k >= n) throw py::index_error("scan " + std::to_string(k) + " of " + std::to_string(n));
-             return scan_tuple(d, static_cast<std::size_t>(k));
+           [](const PyDataset& d, const py::handle& key) {
+             if (!py::isinstance(key, py::module_::import("numbers").attr("Integral")) ||
+                 py::isinstance<py::bool_>(key)) {
+               throw BadType("a Dataset is indexed by an int, not " + type_name(key));
+             }
+             const py::int_ n(d.indices.size());
+             py::int_ k(py::reinterpret_borrow<py::object>(key));
+             if (k < py::int_(0)) k = py::int_(k + n);
+             if (k < py::int_(0) || !(k < n)) {
+               throw py::index_error("scan " + std::string(py::str(key)) + " of " + std::to_string(d.indices.size()));
+             }
+             return scan_tuple(d, k.cast<std::size_t>());
            })
       .def("__iter__",
            [](const std::shared_ptr<PyDataset>& d) {
@@ -213,20 +228,22 @@ void register_dataset_classes(py::module_& m) {
 }
 
 // A bag (ROS 1, or a rosbag2 folder, .db3 or .mcap) as a dataset; the GIL is released while the bag is indexed.
-PyDataset read_bag(const std::string& path, const std::string& points_topic, const std::string& odom_frame,
-                   const std::string& base_frame, const std::string& odom_topic, const std::string& ground_truth_topic,
-                   const std::string& imu_topic, std::size_t start, std::size_t stride, std::size_t count) {
+PyDataset read_bag(const py::handle& path, const py::handle& points_topic, const py::handle& odom_frame,
+                   const py::handle& base_frame, const py::handle& odom_topic, const py::handle& ground_truth_topic,
+                   const py::handle& imu_topic, const py::handle& start, const py::handle& stride,
+                   const py::handle& count) {
+  const std::string file = path_from(path, "path");
   BagOptions o;
-  o.points_topic = points_topic;
-  o.odom_frame = odom_frame;
-  o.base_frame = base_frame;
-  o.odom_topic = odom_topic;
-  o.ground_truth_topic = ground_truth_topic;
-  o.imu_topic = imu_topic;
+  o.points_topic = text_from(points_topic, "points_topic");
+  o.odom_frame = text_from(odom_frame, "odom_frame");
+  o.base_frame = text_from(base_frame, "base_frame");
+  o.odom_topic = text_from(odom_topic, "odom_topic");
+  o.ground_truth_topic = text_from(ground_truth_topic, "ground_truth_topic");
+  o.imu_topic = text_from(imu_topic, "imu_topic");
   std::shared_ptr<const Dataset> dataset;
   {
     py::gil_scoped_release release;
-    dataset = std::make_shared<const Dataset>(Dataset::open_bag(path, o));
+    dataset = std::make_shared<const Dataset>(Dataset::open_bag(file, o));
   }
   return select(std::move(dataset), start, stride, count);
 }
@@ -245,25 +262,27 @@ void register_dataset(py::module_& m) {
 
   m.def(
       "read_dataset",
-      [](const std::string& dir, std::size_t start, std::size_t stride, std::size_t count) {
-        auto dataset = std::make_shared<const Dataset>(Dataset::open(dir));
+      [](const py::handle& dir, const py::handle& start, const py::handle& stride, const py::handle& count) {
+        auto dataset = std::make_shared<const Dataset>(Dataset::open(path_from(dir, "dir")));
         return select(std::move(dataset), start, stride, count);
       },
-      py::arg("dir"), py::arg("start") = 0, py::arg("stride") = 1, py::arg("count") = 0,
+      py::arg("dir"), py::arg("start") = py::int_(0), py::arg("stride") = py::int_(1), py::arg("count") = py::int_(0),
       "A dataset folder (scans/, times.txt, optional poses.txt, odom.txt, imu.txt); start/stride/count as in "
       "tsdf-mcl localize (count 0 = all).");
 
-  m.def("read_bag", &read_bag, py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = "odom",
-        py::arg("base_frame") = "base_link", py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "",
-        py::arg("imu_topic") = "", py::arg("start") = 0, py::arg("stride") = 1, py::arg("count") = 0,
+  m.def("read_bag", &read_bag, py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = py::str("odom"),
+        py::arg("base_frame") = py::str("base_link"), py::arg("odom_topic") = py::str(""),
+        py::arg("ground_truth_topic") = py::str(""), py::arg("imu_topic") = py::str(""), py::arg("start") = py::int_(0),
+        py::arg("stride") = py::int_(1), py::arg("count") = py::int_(0),
         "A bag as a dataset (docs/bags.md): ROS 1, or ROS 2 (a rosbag2 folder, .db3 or .mcap file); the PointCloud2 "
         "scans of points_topic, odometry from tf or odom_topic, ground truth and IMU from their topics.");
   m.attr("ros1_bag_support") = Dataset::ros1_bag_support();
 
   m.def("evaluate", &evaluate, py::arg("times"), py::arg("poses"), py::arg("ground_truth"),
-        py::arg("converged") = py::none(), py::arg("max_translation_error") = 0.3,
-        py::arg("max_rotation_error_deg") = 5.0, py::arg("time_tolerance") = 0.02,
-        py::arg("false_convergence_translation") = 1.0, py::arg("false_convergence_rotation_deg") = 10.0,
+        py::arg("converged") = py::none(), py::arg("max_translation_error") = py::float_(0.3),
+        py::arg("max_rotation_error_deg") = py::float_(5.0), py::arg("time_tolerance") = py::float_(0.02),
+        py::arg("false_convergence_translation") = py::float_(1.0),
+        py::arg("false_convergence_rotation_deg") = py::float_(10.0),
         "The metrics of tsdf-mcl evaluate for an estimated trajectory (times (N,), poses (N, 4, 4) world_T_sensor) "
         "against ground_truth (a Dataset with poses, or a tuple (times, poses)); converged: the localizer's flags per "
         "estimate, for the false-convergence count. Returns the CLI's JSON as a dict, plus per-estimate 'errors'.");

@@ -8,11 +8,13 @@
 #include <mutex>
 #include <string>
 
+#include "arguments.hpp"
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "parameters.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/localizer/map_extent_checks.hpp"
 
 namespace tsdf_mcl::python {
 namespace {
@@ -75,33 +77,48 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   return out;
 }
 
+// The library's checks of map_extent_checks.hpp (Error) as ValueError naming the Python argument.
+template <typename Check>
+void as_bad_argument(Check check) {
+  try {
+    check();
+  } catch (const Error& e) {
+    throw BadArgument(e.what());
+  }
+}
+
 // The library's Localizer with the map it reads and a lock: process() runs without the GIL, so two Python
 // threads may call into one localizer at once; they take turns.
 class PyLocalizer {
  public:
-  PyLocalizer(std::shared_ptr<TsdfMap> map, const py::object& params, const std::string& backend)
-      : map_(std::move(map)), options_(localizer_options_from_python(params, backend)) {
+  PyLocalizer(const py::handle& map, const py::object& params, const py::handle& backend)
+      : map_(map_from(map, "map")), options_(localizer_options_from_python(params, text_from(backend, "backend"))) {
+    as_bad_argument([&] { check_options_for_map(*map_, options_); });
     py::gil_scoped_release release;
     localizer_ = std::make_unique<Localizer>(*map_, options_);
   }
 
-  PyResult process(const py::handle& points, const py::handle& odom, double stamp, const py::object& scan_id) {
-    if (!std::isfinite(stamp)) throw BadArgument("stamp must be a finite number of seconds");
+  PyResult process(const py::handle& points, const py::handle& odom, const py::handle& stamp,
+                   const py::object& scan_id) {
+    const double time = number_from(stamp, "stamp");
+    as_bad_argument([&] { check_time(time, "stamp"); });
     const std::vector<Eigen::Vector3f> p = points_from(points, "points");
     std::optional<Pose> odometry;
     if (!odom.is_none()) odometry = pose_from(odom, "odom");
     std::optional<std::uint64_t> id;
-    if (!scan_id.is_none()) id = scan_id.cast<std::uint64_t>();
+    if (!scan_id.is_none()) id = count_from(scan_id, "scan_id");
     py::gil_scoped_release release;
     std::lock_guard<std::mutex> lock(mutex_);
+    if (odometry) as_bad_argument([&] { check_odometry(*map_, *odometry, localizer_->last_odometry(), "odom"); });
     const auto t0 = std::chrono::steady_clock::now();
-    const ScanRecord& record = localizer_->process(stamp, p, odometry, id);
+    const ScanRecord& record = localizer_->process(time, p, odometry, id);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return result_of(record, ms);
   }
 
   void init_pose(const py::handle& pose, const py::object& covariance) {
     const Pose world_T_sensor = pose_from(pose, "pose");
+    as_bad_argument([&] { check_pose_in_map(*map_, world_T_sensor, "pose"); });
     std::optional<LocalInitSpread> spread;
     if (!covariance.is_none()) {
       // The covariance's order: x, y, z, then the rotation vector in the sensor frame (PoseEstimate); the spread
@@ -112,6 +129,7 @@ class PyLocalizer {
       s.sigma_z = std::sqrt(c(2, 2));
       s.sigma_roll_pitch = std::sqrt(0.5 * (c(3, 3) + c(4, 4)));
       s.sigma_yaw = std::sqrt(c(5, 5));
+      as_bad_argument([&] { check_spread_for_map(*map_, s, "covariance's "); });
       spread = s;
     }
     py::gil_scoped_release release;
@@ -129,11 +147,7 @@ class PyLocalizer {
   }
 
   void add_imu(const py::handle& samples) {
-    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(samples);
-    if (!a) {
-      PyErr_Clear();
-      throw BadArgument("imu samples must be an array (t, ax, ay, az) or (M, 4)");
-    }
+    const py::array_t<double> a = real_array(samples, "imu samples", "an array (t, ax, ay, az) or (M, 4)");
     const bool one = a.ndim() == 1 && a.shape(0) == 4;
     if (!one && !(a.ndim() == 2 && a.shape(1) == 4)) {
       throw BadArgument("imu samples must have shape (4,) or (M, 4): t, ax, ay, az (m/s^2, sensor frame)");
@@ -267,8 +281,8 @@ void register_results(py::module_& m) {
 void register_localizer(py::module_& m) {
   register_results(m);
   py::class_<PyLocalizer>(m, "Localizer", "Global 6-DoF localization of a LiDAR in a Map, one scan at a time")
-      .def(py::init<std::shared_ptr<TsdfMap>, const py::object&, const std::string&>(), py::arg("map"),
-           py::arg("params") = py::none(), py::arg("backend") = "auto",
+      .def(py::init<const py::handle&, const py::object&, const py::handle&>(), py::arg("map"),
+           py::arg("params") = py::none(), py::arg("backend") = py::str("auto"),
            "params: a dict of the parameters of tsdf-mcl localize --help by name (numbers, strings, lists, bools for "
            "flags), or the path of a YAML/JSON parameter file; backend: auto, vulkan or cpu (wins over params).")
       .def("process", &PyLocalizer::process, py::arg("points"), py::arg("odom"), py::arg("stamp"),

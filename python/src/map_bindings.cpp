@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "arguments.hpp"
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
@@ -28,12 +29,35 @@ std::uint64_t memory_bytes(double mib) {
   return static_cast<std::uint64_t>(mib * 1048576.0);
 }
 
-void check_geometry(float voxel_size, float truncation) {
-  if (!(voxel_size > 0.0f) || !std::isfinite(voxel_size)) throw BadArgument("voxel_size must be positive");
-  if (!(truncation > 0.0f) || !std::isfinite(truncation)) throw BadArgument("truncation must be positive");
+// The builders' arguments, checked as build-map checks its options (check_build_geometry), before any work.
+struct BuildArguments {
+  float voxel_size, truncation, margin;
+  std::uint64_t max_memory_bytes;
+};
+
+BuildArguments build_arguments(const py::handle& voxel_size, const py::handle& truncation, const py::handle& margin,
+                               const py::handle& max_memory_mib) {
+  const BuildArguments b{static_cast<float>(number_from(voxel_size, "voxel_size")),
+                         static_cast<float>(number_from(truncation, "truncation")),
+                         static_cast<float>(number_from(margin, "margin")),
+                         memory_bytes(number_from(max_memory_mib, "max_memory_mib"))};
+  try {
+    check_build_geometry(b.voxel_size, b.truncation, b.margin, {"voxel_size", "truncation", "margin"});
+  } catch (const Error& e) {
+    throw BadArgument(e.what());
+  }
+  return b;
 }
 
-py::array_t<float> distance(const TsdfMap& map, const py::handle& points, const std::string& interpolation) {
+// A range limit in metres: positive and finite.
+float range_from(const py::handle& obj, const char* name) {
+  const double v = number_from(obj, name);
+  if (!(v > 0.0)) throw BadArgument(std::string(name) + " must be positive");
+  return static_cast<float>(v);
+}
+
+py::array_t<float> distance(const TsdfMap& map, const py::handle& points, const py::handle& how) {
+  const std::string interpolation = text_from(how, "interpolation");
   if (interpolation != "nearest" && interpolation != "trilinear") {
     throw BadArgument("interpolation must be nearest or trilinear, not '" + interpolation + "'");
   }
@@ -123,45 +147,48 @@ const Dataset* dataset_of(const py::handle& obj, std::vector<std::size_t>* scans
 namespace {
 
 // The builders, as tsdf-mcl build-map --mesh, --cloud and --dataset; each releases the GIL while it builds.
-MapPtr map_from_mesh(const std::string& path, float voxel_size, float truncation, float margin, bool fill_free_space,
-                     double max_memory_mib) {
-  check_geometry(voxel_size, truncation);
+MapPtr map_from_mesh(const py::handle& path, const py::handle& voxel_size, const py::handle& truncation,
+                     const py::handle& margin, const py::handle& fill_free_space, const py::handle& max_memory_mib) {
+  const std::string file = path_from(path, "path");
+  const BuildArguments b = build_arguments(voxel_size, truncation, margin, max_memory_mib);
   MeshMapOptions o;
-  o.voxel_size = voxel_size;
-  o.truncation = truncation;
-  o.margin = margin;
-  o.fill_free_space = fill_free_space;
-  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  o.voxel_size = b.voxel_size;
+  o.truncation = b.truncation;
+  o.margin = b.margin;
+  o.fill_free_space = flag_from(fill_free_space, "fill_free_space");
+  o.max_memory_bytes = b.max_memory_bytes;
   py::gil_scoped_release release;
-  return std::make_shared<TsdfMap>(build_map_from_mesh(load_mesh(path), o));
+  return std::make_shared<TsdfMap>(build_map_from_mesh(load_mesh(file), o));
 }
 
-MapPtr map_from_cloud(const py::handle& points, float voxel_size, float truncation, float margin,
-                      const py::object& trajectory, float max_range, bool fill_free_space, double max_memory_mib) {
-  check_geometry(voxel_size, truncation);
+MapPtr map_from_cloud(const py::handle& points, const py::handle& voxel_size, const py::handle& truncation,
+                      const py::handle& margin, const py::object& trajectory, const py::handle& max_range,
+                      const py::handle& fill_free_space, const py::handle& max_memory_mib) {
+  const BuildArguments b = build_arguments(voxel_size, truncation, margin, max_memory_mib);
   CloudMapOptions o;
-  o.voxel_size = voxel_size;
-  o.truncation = truncation;
-  o.margin = margin;
-  o.max_range = max_range;
-  o.fill_free_space = fill_free_space;
-  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  o.voxel_size = b.voxel_size;
+  o.truncation = b.truncation;
+  o.margin = b.margin;
+  o.max_range = range_from(max_range, "max_range");
+  o.fill_free_space = flag_from(fill_free_space, "fill_free_space");
+  o.max_memory_bytes = b.max_memory_bytes;
   if (!trajectory.is_none()) o.trajectory = positions_from(trajectory, "trajectory");
   const std::vector<Eigen::Vector3f> p = points_from(points, "points");
   py::gil_scoped_release release;
   return std::make_shared<TsdfMap>(build_map_from_cloud(p, o));
 }
 
-MapPtr map_from_scans(const py::object& scans, const py::object& poses, float voxel_size, float truncation,
-                      float min_range, float max_range, float margin, double max_memory_mib) {
-  check_geometry(voxel_size, truncation);
+MapPtr map_from_scans(const py::object& scans, const py::object& poses, const py::handle& voxel_size,
+                      const py::handle& truncation, const py::handle& min_range, const py::handle& max_range,
+                      const py::handle& margin, const py::handle& max_memory_mib) {
+  const BuildArguments b = build_arguments(voxel_size, truncation, margin, max_memory_mib);
   ScanMapOptions o;
-  o.voxel_size = voxel_size;
-  o.truncation = truncation;
-  o.min_range = min_range;
-  o.max_range = max_range;
-  o.margin = margin;
-  o.max_memory_bytes = memory_bytes(max_memory_mib);
+  o.voxel_size = b.voxel_size;
+  o.truncation = b.truncation;
+  o.min_range = static_cast<float>(number_from(min_range, "min_range"));
+  o.max_range = range_from(max_range, "max_range");
+  o.margin = b.margin;
+  o.max_memory_bytes = b.max_memory_bytes;
   std::vector<std::size_t> selected;
   if (const Dataset* dataset = dataset_of(scans, &selected)) {
     if (!poses.is_none()) throw BadArgument("poses: a Dataset brings its own (poses.txt)");
@@ -182,20 +209,22 @@ void register_map(py::module_& m) {
   py::class_<TsdfMap, MapPtr>(m, "Map", "A TSDF map (the .tsdf file of tsdf-mcl build-map)")
       .def_static(
           "load",
-          [](const std::string& path) {
+          [](const py::handle& path) {
+            const std::string file = path_from(path, "path");
             py::gil_scoped_release release;
-            return std::make_shared<TsdfMap>(load_map(path));
+            return std::make_shared<TsdfMap>(load_map(file));
           },
           py::arg("path"), "Loads a .tsdf map file (tsdf_mcl.Error for a missing, corrupt or wrong-version file).")
       .def(
           "save",
-          [](const TsdfMap& map, const std::string& path) {
+          [](const TsdfMap& map, const py::handle& path) {
+            const std::string file = path_from(path, "path");
             py::gil_scoped_release release;
-            save_map(map, path);
+            save_map(map, file);
           },
-          py::arg("path"), "Writes the map as a .tsdf file.")
+          py::arg("path"), "Writes the map as a .tsdf file (replacing only a regular file).")
       .def("info", &info, "Geometry and occupancy: voxel_size, truncation, world_min/max, blocks, voxels, memory.")
-      .def("distance", &distance, py::arg("points"), py::arg("interpolation") = "nearest",
+      .def("distance", &distance, py::arg("points"), py::arg("interpolation") = py::str("nearest"),
            "TSDF lookup of a float32 (N, 3) or (N, 4) array of world points: (N,) float32 signed distances in metres, "
            "NaN where the map is unknown. interpolation: nearest (the filter's default) or trilinear.")
       .def_property_readonly("voxel_size", &TsdfMap::voxel_size)
@@ -209,20 +238,22 @@ void register_map(py::module_& m) {
         return std::string(buf);
       });
 
-  m.def("build_map_from_mesh", &map_from_mesh, py::arg("path"), py::arg("voxel_size") = kDefaultVoxelSize,
-        py::arg("truncation") = kDefaultTruncation, py::arg("margin") = 1.0f, py::arg("fill_free_space") = true,
-        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+  const py::float_ default_voxel(kDefaultVoxelSize), default_truncation(kDefaultTruncation), default_margin(1.0);
+  const py::float_ default_memory(static_cast<double>(limits::kDefaultBuildMemoryMiB)), default_range(60.0);
+  m.def("build_map_from_mesh", &map_from_mesh, py::arg("path"), py::arg("voxel_size") = default_voxel,
+        py::arg("truncation") = default_truncation, py::arg("margin") = default_margin,
+        py::arg("fill_free_space") = py::bool_(true), py::arg("max_memory_mib") = default_memory,
         "A map from a triangle mesh file (STL, PLY, OBJ), as tsdf-mcl build-map --mesh.");
-  m.def("build_map_from_cloud", &map_from_cloud, py::arg("points"), py::arg("voxel_size") = kDefaultVoxelSize,
-        py::arg("truncation") = kDefaultTruncation, py::arg("margin") = 1.0f, py::arg("trajectory") = py::none(),
-        py::arg("max_range") = 60.0f, py::arg("fill_free_space") = true,
-        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+  m.def("build_map_from_cloud", &map_from_cloud, py::arg("points"), py::arg("voxel_size") = default_voxel,
+        py::arg("truncation") = default_truncation, py::arg("margin") = default_margin,
+        py::arg("trajectory") = py::none(), py::arg("max_range") = default_range,
+        py::arg("fill_free_space") = py::bool_(true), py::arg("max_memory_mib") = default_memory,
         "A map from a world-frame float32 (N, 3) point cloud, as tsdf-mcl build-map --cloud; trajectory: the mapping "
         "run's sensor positions (M, 3), if known.");
   m.def("build_map_from_scans", &map_from_scans, py::arg("scans"), py::arg("poses") = py::none(),
-        py::arg("voxel_size") = kDefaultVoxelSize, py::arg("truncation") = kDefaultTruncation,
-        py::arg("min_range") = 0.3f, py::arg("max_range") = 60.0f, py::arg("margin") = 1.0f,
-        py::arg("max_memory_mib") = static_cast<double>(limits::kDefaultBuildMemoryMiB),
+        py::arg("voxel_size") = default_voxel, py::arg("truncation") = default_truncation,
+        py::arg("min_range") = py::float_(0.3), py::arg("max_range") = default_range,
+        py::arg("margin") = default_margin, py::arg("max_memory_mib") = default_memory,
         "A map by TSDF integration of registered scans, as tsdf-mcl build-map --dataset: a Dataset (its poses.txt), "
         "or a list of sensor-frame float32 (N, 3) arrays with their poses, shape (N, 4, 4) world_T_sensor.");
 }

@@ -6,8 +6,6 @@
 namespace tsdf_mcl::python {
 namespace {
 
-std::string type_name(const py::handle& obj) { return py::str(py::type::handle_of(obj).attr("__name__")); }
-
 std::string shape_of(const py::array& a) {
   std::string s = "(";
   for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
@@ -16,14 +14,51 @@ std::string shape_of(const py::array& a) {
 
 std::string dtype_of(const py::array& a) { return py::str(a.dtype()); }
 
-// A float64 array of the given shape from anything numpy converts (lists, float32, integer arrays).
-py::array_t<double> doubles_from(const py::handle& obj, const char* name, std::initializer_list<py::ssize_t> shape,
-                                 const char* expected) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+// What an argument is, for "must be X, not ...": an array's dtype, what a list holds, else its type.
+std::string described(const py::handle& obj, const py::array& as_array) {
+  if (py::isinstance<py::array>(obj)) return "an array of " + dtype_of(as_array);
+  if (py::isinstance<py::list>(obj) || py::isinstance<py::tuple>(obj)) {
+    return "a " + type_name(obj) + " of " +
+           (as_array.dtype().kind() == 'O' ? std::string("other objects (None, str, rows of other lengths)")
+                                           : dtype_of(as_array));
+  }
+  return type_name(obj);
+}
+
+}  // namespace
+
+// Anything numpy reads as real numbers (lists, float32, integer arrays); complex numbers (whose imaginary part a cast
+// drops), bools, strings and objects (None in a list) are refused.
+py::array_t<double> real_array(const py::handle& obj, const char* name, const char* expected) {
+  py::array any;
+  try {
+    any = py::module_::import("numpy").attr("asarray")(obj);
+  } catch (const py::error_already_set&) {  // ragged lists, objects numpy cannot read
+    throw BadArgument(std::string(name) + " must be " + expected + ", not " + type_name(obj));
+  }
+  const char kind = any.dtype().kind();
+  if (kind == 'c') throw BadArgument(std::string(name) + " holds complex numbers; pass real numbers (.real)");
+  if (kind != 'f' && kind != 'i' && kind != 'u') {
+    throw BadArgument(std::string(name) + " must be " + expected + " of real numbers, not " + described(obj, any));
+  }
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(any);
   if (!a) {
     PyErr_Clear();
     throw BadArgument(std::string(name) + " must be " + expected + ", not " + type_name(obj));
   }
+  const double* v = a.data();
+  for (py::ssize_t i = 0; i < a.size(); ++i) {
+    if (!std::isfinite(v[i])) throw BadArgument(std::string(name) + " holds a non-finite value (NaN or Inf)");
+  }
+  return a;
+}
+
+namespace {
+
+// A float64 array of the given shape (-1: any length on that axis), from real_array.
+py::array_t<double> doubles_from(const py::handle& obj, const char* name, std::initializer_list<py::ssize_t> shape,
+                                 const char* expected) {
+  const py::array_t<double> a = real_array(obj, name, expected);
   bool ok = a.ndim() == static_cast<py::ssize_t>(shape.size());
   py::ssize_t d = 0;
   for (const py::ssize_t s : shape) {
@@ -31,10 +66,6 @@ py::array_t<double> doubles_from(const py::handle& obj, const char* name, std::i
     ++d;
   }
   if (!ok) throw BadArgument(std::string(name) + " must be " + expected + ", got shape " + shape_of(a));
-  const double* v = a.data();
-  for (py::ssize_t i = 0; i < a.size(); ++i) {
-    if (!std::isfinite(v[i])) throw BadArgument(std::string(name) + " holds a non-finite value (NaN or Inf)");
-  }
   return a;
 }
 
@@ -60,6 +91,8 @@ Pose rigid_from(const double* m, const std::string& name) {
 }
 
 }  // namespace
+
+std::string type_name(const py::handle& obj) { return py::str(py::type::handle_of(obj).attr("__name__")); }
 
 std::vector<Eigen::Vector3f> points_from(const py::handle& obj, const char* name, bool allow_empty) {
   const std::string n(name);

@@ -20,6 +20,13 @@ namespace py = pybind11;
 struct BadArgument : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
+// An argument of the wrong kind (None for a path, a str for a number): raised as TypeError.
+struct BadType : BadArgument {
+  using BadArgument::BadArgument;
+};
+
+// The name of obj's type, for messages.
+std::string type_name(const py::handle& obj);
 
 // A numpy array of float32, shape (N, 3) or (N, 4) (x y z [intensity]), any strides (a slice or a transposed
 // view is read in place, no intermediate copy); every coordinate finite. Copied into the vector the library takes.
@@ -32,6 +39,8 @@ std::vector<Eigen::Vector3f> positions_from(const py::handle& obj, const char* n
 Pose pose_from(const py::handle& obj, const char* name);
 // A 6x6 covariance: finite, symmetric, non-negative diagonal.
 Matrix6d covariance_from(const py::handle& obj, const char* name);
+// A float64 array of any shape from real numbers (an array, a list; not complex, bool, str, None), every value finite.
+py::array_t<double> real_array(const py::handle& obj, const char* name, const char* expected);
 // A 1-D array (or sequence) of finite float64 values.
 std::vector<double> values_from(const py::handle& obj, const char* name);
 // (N, 4, 4) array of rigid transforms.

@@ -121,11 +121,11 @@ def test_other_bad_arguments(scene, scan, tmp_path):
     with pytest.raises(ValueError, match="stamp"):
         loc.process(points, odom, float("nan"))
     with pytest.raises(ValueError, match="not symmetric"):
-        loc.init_pose(odom, np.triu(np.ones((6, 6))))
+        loc.init_pose(scene["truth"][0], np.triu(np.ones((6, 6))))
     with pytest.raises(ValueError, match="negative variance"):
-        loc.init_pose(odom, -np.eye(6))
+        loc.init_pose(scene["truth"][0], -np.eye(6))
     with pytest.raises(ValueError, match="6x6"):
-        loc.init_pose(odom, np.eye(3))
+        loc.init_pose(scene["truth"][0], np.eye(3))
     with pytest.raises(ValueError, match=r"\(M, 4\)"):
         loc.add_imu(np.zeros((3, 3)))
     loc.add_imu([10.0, 0.0, 0.0, 9.81])

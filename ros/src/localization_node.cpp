@@ -136,7 +136,11 @@ void LocalizationNode::apply_requests(const ros::Time& stamp) {
   const Eigen::Vector3d t = pose.translation();
   ROS_INFO("tsdf_mcl: initial pose %.2f %.2f %.2f, yaw %.1f deg%s (stamp %.3f)", t.x(), t.y(), t.z(),
            yaw_of(pose) * 180.0 / M_PI, planar ? " (z, roll, pitch from the map)" : "", stamp.toSec());
-  localizer_->reset_to(pose);
+  try {
+    localizer_->reset_to(pose);  // a pose outside the map is refused (map_extent_checks.hpp)
+  } catch (const Error& e) {
+    ROS_WARN("tsdf_mcl: /initialpose refused: %s", one_line(e.what()).c_str());
+  }
 }
 
 std::optional<Pose> LocalizationNode::lookup(const std::string& target, const std::string& source,

@@ -1,10 +1,12 @@
 #include "tsdf_mcl/core/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 
 #include "tsdf_mcl/core/error.hpp"
@@ -13,10 +15,24 @@ namespace tsdf_mcl {
 namespace fs = std::filesystem;
 namespace {
 
+std::string partial_prefix(const fs::path& file) { return file.filename().string() + ".partial-"; }
+
 // Beside the target (same file system, so rename is atomic), unique per process and call.
 fs::path temporary_beside(const fs::path& file) {
   static std::atomic<unsigned> counter{0};
   return file.string() + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+}
+
+// Something other than a regular file (or a link to one) at `file`, which an output must not replace; a name with
+// a NUL character, which the system would cut short there.
+void refuse_non_regular(const fs::path& file, const std::string& what) {
+  if (file.native().find('\0') != std::string::npos) throw Error(what + " file name holds a NUL character");
+  std::error_code ec;
+  const fs::file_status status = fs::status(file, ec);
+  if (ec || !fs::exists(status) || fs::is_regular_file(status)) return;
+  if (fs::is_directory(status)) throw Error("cannot write " + what + " " + file.string() + ": it is a folder");
+  throw Error("cannot write " + what + " " + file.string() +
+              ": it is not a regular file (a device, FIFO or socket); an output replaces only a regular file");
 }
 
 // Flushes a written file to disk, so that the rename cannot outlive its contents after a crash.
@@ -29,6 +45,12 @@ bool sync_file(const fs::path& file) {
 
 void commit(const fs::path& temporary, const fs::path& file, const std::string& what) {
   std::error_code ec;
+  try {
+    refuse_non_regular(file, what);  // again: it may have become one while the output was written
+  } catch (const Error&) {
+    fs::remove(temporary, ec);
+    throw;
+  }
   if (!sync_file(temporary)) {
     fs::remove(temporary, ec);
     throw Error("cannot write " + what + " " + file.string() + " (disk full?)");
@@ -68,6 +90,8 @@ void write_file_atomically(const fs::path& file, std::string_view bytes, const s
 
 void write_file_atomically(const fs::path& file, const std::function<void(const fs::path&)>& write,
                            const std::string& what) {
+  refuse_non_regular(file, what);
+  remove_stale_partials(file.has_parent_path() ? file.parent_path() : fs::path("."), partial_prefix(file));
   const fs::path temporary = temporary_beside(file);
   try {
     write(temporary);
@@ -79,19 +103,41 @@ void write_file_atomically(const fs::path& file, const std::function<void(const 
   commit(temporary, file, what);
 }
 
-void check_output_file(const fs::path& file, const std::string& what) {
+void check_output_file(const fs::path& file, const std::string& what, const std::vector<fs::path>& inputs) {
   if (file.empty()) throw Error(what + ": empty file name");
   const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
     throw Error("cannot write " + what + " " + file.string() + ": folder " + folder.string() + " does not exist");
   }
-  if (fs::is_directory(file, ec)) throw Error("cannot write " + what + " " + file.string() + ": it is a folder");
+  refuse_non_regular(file, what);
+  for (const fs::path& input : inputs) {
+    if (!input.empty() && fs::equivalent(file, input, ec) && !ec) {
+      throw Error("cannot write " + what + " " + file.string() + ": it is one of the command's inputs (" +
+                  input.string() + "); write to another file");
+    }
+  }
   const fs::path probe = temporary_beside(file);
   const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) throw Error("cannot write " + what + " " + file.string() + ": " + std::strerror(errno));
   ::close(fd);
   fs::remove(probe, ec);
+}
+
+void remove_stale_partials(const fs::path& folder, const std::string& prefix) {
+  std::error_code ec;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string rest = name.substr(prefix.size());
+    const std::string digits = rest.substr(0, rest.find('-'));
+    long pid = 0;
+    const auto [ptr, err] = std::from_chars(digits.data(), digits.data() + digits.size(), pid);
+    if (digits.empty() || err != std::errc() || ptr != digits.data() + digits.size() || pid <= 0) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
 }
 
 }  // namespace tsdf_mcl

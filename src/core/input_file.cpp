@@ -13,6 +13,8 @@ namespace fs = std::filesystem;
 
 std::uint64_t input_file_size(const fs::path& file, const std::string& what, std::uint64_t max_bytes) {
   const std::string name = what + " " + file.string();
+  // The system would read the name only up to the NUL: "map.tsdf\0x" would open map.tsdf.
+  if (file.native().find('\0') != std::string::npos) throw Error(what + " file name holds a NUL character");
   std::error_code ec;
   const fs::file_status status = fs::status(file, ec);
   if (status.type() == fs::file_type::not_found) throw Error(name + " does not exist");

@@ -63,6 +63,9 @@ std::vector<double> read_times(const fs::path& file) {
     if (!(ss >> t) || !std::isfinite(t) || !at_end(ss)) {
       throw Error(at_line(file, line_no) + "expected one timestamp, got '" + line + "'");
     }
+    if (std::abs(t) > limits::kMaxAbsTime) {
+      throw Error(at_line(file, line_no) + "timestamp " + line + " lies beyond +-2^32 s (ROS time's range)");
+    }
     times.push_back(t);
   });
   return times;
@@ -162,6 +165,15 @@ std::string kitti_line(const Pose& pose) {
   return line;
 }
 
+// The last guard before a number is written: no output ever holds NaN or Inf (an input beyond its range, or a bug,
+// would otherwise end in a file that reads back as garbage, and an exit status of 0).
+void check_finite_output(bool finite, const fs::path& file, std::size_t line) {
+  if (!finite) {
+    throw Error("refusing to write a non-finite number (NaN or Inf) to " + file.string() + " line " +
+                std::to_string(line + 1));
+  }
+}
+
 }  // namespace
 
 PointCloud read_kitti_bin(const fs::path& file) {
@@ -214,6 +226,9 @@ std::vector<Pose> read_kitti_poses(const fs::path& file) {
                   ", det R = " + std::to_string(r.determinant()) + " (needs orthonormal rows, det +1, within " +
                   std::to_string(kRotationTolerance) + ")");
     }
+    if (Eigen::Vector3d(v[3], v[7], v[11]).cwiseAbs().maxCoeff() > limits::kMaxAbsPosition) {
+      throw Error(at_line(file, line_no) + "a translation beyond +-2^28 m (farther than any map reaches)");
+    }
     poses.push_back(pose_from_kitti(v));
   });
   return poses;
@@ -221,7 +236,10 @@ std::vector<Pose> read_kitti_poses(const fs::path& file) {
 
 void write_kitti_poses(const fs::path& file, const std::vector<Pose>& poses) {
   std::string text;
-  for (const Pose& p : poses) text += kitti_line(p);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    check_finite_output(poses[i].matrix().allFinite(), file, i);
+    text += kitti_line(poses[i]);
+  }
   write_file_atomically(file, text, "poses");
 }
 
@@ -249,7 +267,9 @@ std::vector<StampedPose> read_tum(const fs::path& file) {
 void write_tum(const fs::path& file, const std::vector<StampedPose>& trajectory) {
   std::string text;
   char line[256];
-  for (const auto& sp : trajectory) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    const StampedPose& sp = trajectory[i];
+    check_finite_output(std::isfinite(sp.time) && sp.pose.matrix().allFinite(), file, i);
     const Eigen::Quaterniond q(sp.pose.linear());
     const Eigen::Vector3d t = sp.pose.translation();
     std::snprintf(line, sizeof(line), "%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", sp.time, t.x(), t.y(), t.z(), q.x(),
@@ -403,8 +423,9 @@ void DatasetWriter::close() {
   closed_ = true;
   std::string text;
   char line[64];
-  for (double t : times_) {
-    std::snprintf(line, sizeof(line), "%.9f\n", t);
+  for (std::size_t i = 0; i < times_.size(); ++i) {
+    check_finite_output(std::isfinite(times_[i]), dir_ / "times.txt", i);
+    std::snprintf(line, sizeof(line), "%.9f\n", times_[i]);
     text += line;
   }
   write_file_atomically(dir_ / "times.txt", text, "timestamps");

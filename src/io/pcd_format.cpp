@@ -50,9 +50,9 @@ void read_pcd_header_line(PcdHeader& h, const std::string& key, const std::vecto
     h.points = pcd_count(values[0], max_points, name, "POINTS");
     have_points = true;
   } else if (key == "WIDTH" || key == "HEIGHT") {
-    // Not used (POINTS counts the points), but a value that is no count means a corrupt header.
+    // POINTS counts the points; WIDTH x HEIGHT must agree with it (lay_out_pcd_fields), or the header is corrupt.
     if (values.size() != 1) throw Error(name + ": PCD " + key + " needs one value");
-    pcd_count(values[0], max_points, name, key);
+    (key == "WIDTH" ? h.width : h.height) = pcd_count(values[0], max_points, name, key);
   } else if (key == "DATA") {
     if (values.size() != 1) throw Error(name + ": PCD DATA needs one value");
     h.data = values[0];
@@ -67,6 +67,14 @@ void lay_out_pcd_fields(PcdHeader& h, const std::string& name, bool have_points)
     throw Error(name + ": malformed PCD header (FIELDS, SIZE, TYPE and COUNT must name the same fields)");
   }
   if (!have_points) throw Error(name + ": PCD header has no POINTS line");
+  if (h.width || h.height) {
+    const std::uint64_t w = h.width.value_or(h.points), ht = h.height.value_or(1);
+    const bool agree = w == 0 || ht == 0 ? h.points == 0 : h.points % w == 0 && h.points / w == ht;
+    if (!agree) {
+      throw Error(name + ": PCD WIDTH x HEIGHT (" + std::to_string(w) + " x " + std::to_string(ht) +
+                  ") differs from POINTS " + std::to_string(h.points));
+    }
+  }
   if (h.data.empty()) throw Error(name + ": PCD header has no DATA line");
   if (h.data != "ascii" && h.data != "binary" && h.data != "binary_compressed") {
     throw Error(name + ": PCD DATA '" + h.data + "' not supported (ascii, binary or binary_compressed)");

@@ -138,7 +138,8 @@ std::uint64_t checked_point_count(const PointCloud2Layout& layout, std::size_t s
   }
   const std::uint64_t row_bytes =
       io::checked_mul(layout.width, layout.point_step, what + ": PointCloud2 width * point_step");
-  if (points > 0 && layout.height > 1 && layout.row_step < row_bytes) {
+  // A single row's row_step is not used to read it, but one below its own points' bytes means a corrupt message.
+  if (points > 0 && layout.row_step < row_bytes) {
     throw Error(what + ": PointCloud2 row_step " + std::to_string(layout.row_step) + " is less than width " +
                 std::to_string(layout.width) + " * point_step " + std::to_string(layout.point_step));
   }

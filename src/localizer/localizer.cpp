@@ -6,6 +6,7 @@
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/core/stopwatch.hpp"
+#include "tsdf_mcl/localizer/map_extent_checks.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -18,6 +19,7 @@ constexpr std::size_t kUpdateTimes = 10000;  // updates the summary's median is 
 Localizer::Localizer(const TsdfMap& map, const LocalizerOptions& options)
     : map_(map), options_(options), preprocessor_(options.preprocessing) {
   options_.filter.validate();
+  check_options_for_map(map_, options_);
   evaluator_ = make_evaluator(map_, options_.evaluator, &backend_note_);
   filter_ = std::make_unique<ParticleFilter>(map_, *evaluator_, options_.filter, options_.preprocessing.max_beams);
   min_particles_ = max_particles_ = options_.filter.initial_particles;
@@ -38,9 +40,12 @@ void Localizer::add_imu(const ImuSample& sample) {
 void Localizer::reset_to(const Pose& pose) { reset_to(pose, options_.filter.local_init); }
 
 void Localizer::reset_to(const Pose& pose, const LocalInitSpread& spread) {
+  check_pose_in_map(map_, pose, "the initial pose");
+  check_spread_for_map(map_, spread, "the initial pose's ");
   const Stopwatch t0;
   filter_->initialize_local(pose, spread);
   pending_global_ = false;
+  last_odometry_.reset();
   InitializationRecord r;
   r.global = false;
   r.particles = options_.filter.initial_particles;
@@ -50,7 +55,10 @@ void Localizer::reset_to(const Pose& pose, const LocalInitSpread& spread) {
   converged_since_index_.reset();
 }
 
-void Localizer::reset_global() { pending_global_ = true; }
+void Localizer::reset_global() {
+  pending_global_ = true;
+  last_odometry_.reset();
+}
 
 void Localizer::initialize(const std::vector<Eigen::Vector3f>* points, const ScanExtras& extras) {
   const Stopwatch t0;
@@ -71,6 +79,11 @@ void Localizer::initialize(const std::vector<Eigen::Vector3f>* points, const Sca
 
 const ScanRecord& Localizer::process(double time, const std::vector<Eigen::Vector3f>& points,
                                      const std::optional<Pose>& odometry, std::optional<std::uint64_t> scan_id) {
+  // Checked before anything changes: a refused scan leaves the localizer as it was.
+  check_time(time, "the scan's stamp");
+  // After an initialization the filter takes no motion from odometry (its reference starts anew), so neither does
+  // the check: an operator's new pose or a global search recovers from odometry that jumped.
+  if (odometry) check_odometry(map_, *odometry, last_odometry_, "the scan's odometry");
   record_ = ScanRecord{};
   record_.time = time;
   record_.index = scans_;
@@ -93,6 +106,7 @@ const ScanRecord& Localizer::process(double time, const std::vector<Eigen::Vecto
   if (pending_global_) initialize(&selected, extras);
   record_.particles_before = filter_->particle_count();
   record_.step = filter_->update(time, selected, odometry, extras);
+  if (odometry) last_odometry_ = odometry;
 
   ++scans_;
   const FilterStep& step = record_.step;

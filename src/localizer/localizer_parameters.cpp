@@ -17,6 +17,12 @@ namespace {
 
 constexpr double kFullTurn = 2.0 * M_PI;
 
+// A value that is not of its parameter's kind (a word for a number, a number for a flag, a name not among the
+// choices): check_parameter_types tells it from a value of the right kind out of range.
+struct ValueTypeError : Error {
+  using Error::Error;
+};
+
 std::string num(double v) {
   std::ostringstream out;
   out << v;
@@ -38,6 +44,18 @@ class Values {
   std::vector<std::string> list(const std::string& name) const;
   // One of `choices`, else Error listing them.
   std::string choice(const std::string& name, const std::vector<std::string>& choices) const;
+  // The text through a parser of names (parse_backend, ...), whose Error is a ValueTypeError.
+  template <typename Parse>
+  auto parsed(const std::string& name, Parse parse) const {
+    const std::string v = text(name);
+    try {
+      return parse(v);
+    } catch (const ValueTypeError&) {
+      throw;
+    } catch (const Error& e) {
+      throw ValueTypeError(e.what());
+    }
+  }
 
  private:
   std::map<std::string, std::string> given_;
@@ -74,7 +92,7 @@ double Values::number(const std::string& name) const {
   char* end = nullptr;
   const double d = std::strtod(v.c_str(), &end);
   if (v.empty() || end != v.c_str() + v.size() || errno != 0 || !std::isfinite(d)) {
-    throw Error(name + " expects a number, got '" + v + "'");
+    throw ValueTypeError(name + " expects a number, got '" + v + "'");
   }
   return d;
 }
@@ -91,7 +109,7 @@ std::size_t Values::count(const std::string& name, std::size_t max) const {
   char* end = nullptr;
   const long long n = std::strtoll(v.c_str(), &end, 10);
   if (v.empty() || end != v.c_str() + v.size() || errno != 0) {
-    throw Error(name + " expects an integer, got '" + v + "'");
+    throw ValueTypeError(name + " expects an integer, got '" + v + "'");
   }
   if (n < 0) throw Error(name + " must not be negative");
   if (static_cast<unsigned long long>(n) > max) {
@@ -106,14 +124,14 @@ bool Values::flag(const std::string& name) const {
   const std::string& v = it->second;
   if (v == "1" || v == "true" || v == "True" || v == "yes" || v == "on") return true;
   if (v == "0" || v == "false" || v == "False" || v == "no" || v == "off" || v.empty()) return false;
-  throw Error(name + " expects true or false, got '" + v + "'");
+  throw ValueTypeError(name + " expects true or false, got '" + v + "'");
 }
 
 std::vector<std::string> Values::list(const std::string& name) const {
   std::vector<std::string> out;
   std::stringstream ss(text(name));
   for (std::string item; std::getline(ss, item, ',');) {
-    if (item.empty()) throw Error(name + " has an empty item");
+    if (item.empty()) throw ValueTypeError(name + " has an empty item");
     out.push_back(item);
   }
   return out;
@@ -126,7 +144,7 @@ std::string Values::choice(const std::string& name, const std::vector<std::strin
   for (std::size_t i = 0; i < choices.size(); ++i) {
     all += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
   }
-  throw Error(name + " must be " + all + ", got '" + v + "'");
+  throw ValueTypeError(name + " must be " + all + ", got '" + v + "'");
 }
 
 void set_sampling(FilterParameters& f, const Values& v) {
@@ -138,7 +156,7 @@ void set_sampling(FilterParameters& f, const Values& v) {
   f.kld.bin_xy = static_cast<float>(v.number("kld_bin_xy"));
   f.kld.bin_z = static_cast<float>(v.number("kld_bin_z"));
   f.kld.bin_angle = static_cast<float>(v.angle("kld_bin_angle"));
-  f.resample_method = parse_resampling_method(v.text("resample_method"));
+  f.resample_method = v.parsed("resample_method", parse_resampling_method);
   f.resample_interval = v.count("resample_interval");
   f.resample_ess_ratio = v.number("resample_ess_ratio");
   f.recovery_alpha_slow = v.number("recovery_alpha_slow");
@@ -168,7 +186,7 @@ void set_sensor(FilterParameters& f, const Values& v) {
 }
 
 void set_motion(FilterParameters& f, const Values& v) {
-  f.motion.type = parse_motion_model(v.text("motion_model"));
+  f.motion.type = v.parsed("motion_model", parse_motion_model);
   double* alphas[] = {&f.motion.alpha1, &f.motion.alpha2, &f.motion.alpha3, &f.motion.alpha4,
                       &f.motion.alpha5, &f.motion.alpha6, &f.motion.alpha7, &f.motion.alpha8};
   for (int i = 0; i < 8; ++i) *alphas[i] = v.number("alpha" + std::to_string(i + 1));
@@ -189,7 +207,7 @@ void set_initialization(FilterParameters& f, const Values& v) {
   f.global_init.max_tilt = v.angle("init_max_tilt");
   if (v.given("init_height_band")) {
     const std::vector<std::string> band = v.list("init_height_band");
-    if (band.size() != 2) throw Error("init_height_band expects MIN,MAX");
+    if (band.size() != 2) throw ValueTypeError("init_height_band expects MIN,MAX");
     f.global_init.use_height_band = true;
     f.global_init.min_height = Values({{"init_height_band", band[0]}}).number("init_height_band");
     f.global_init.max_height = Values({{"init_height_band", band[1]}}).number("init_height_band");
@@ -243,7 +261,9 @@ std::optional<Pose> initial_pose(const Values& v) {
   if (init == "global") return std::nullopt;
   if (init != "initial_pose") {
     const std::vector<std::string> items = v.list("init");
-    if (items.size() != 6) throw Error("init expects global, initial_pose or x,y,z,roll,pitch,yaw (6 numbers)");
+    if (items.size() != 6) {
+      throw ValueTypeError("init expects global, initial_pose or x,y,z,roll,pitch,yaw (6 numbers)");
+    }
     const char* names[] = {"x", "y", "z", "roll", "pitch", "yaw"};
     for (int i = 0; i < 6; ++i) {
       const std::string what = std::string("init's ") + names[i];
@@ -319,6 +339,18 @@ std::map<std::string, std::string> canonical_parameters(const std::map<std::stri
   return out;
 }
 
+void check_parameter_types(const std::map<std::string, std::string>& values) {
+  for (const auto& [name, value] : canonical_parameters(values)) {
+    try {
+      (void)localizer_options_from({{name, value}});
+    } catch (const ValueTypeError&) {
+      throw;
+    } catch (const Error&) {
+      // Of the right kind; whether it fits the other values is checked where they are merged.
+    }
+  }
+}
+
 LocalizerOptions localizer_options_from(const std::map<std::string, std::string>& values) {
   const Values v(values);
   LocalizerOptions lo;
@@ -336,9 +368,9 @@ LocalizerOptions localizer_options_from(const std::map<std::string, std::string>
   lo.preprocessing.validate();
   lo.initial_pose = initial_pose(v);
   lo.use_imu = !v.flag("ignore_imu");
-  lo.evaluator.backend = parse_backend(v.text("backend"));
+  lo.evaluator.backend = v.parsed("backend", parse_backend);
   lo.evaluator.cpu_threads = static_cast<int>(v.count("cpu_threads", limits::kMaxThreads));
-  lo.evaluator.weight_layout = parse_weight_layout(v.text("weight_layout"));
+  lo.evaluator.weight_layout = v.parsed("weight_layout", parse_weight_layout);
   return lo;
 }
 
@@ -386,7 +418,7 @@ double parse_angle(const std::string& text, const std::string& what, double max_
   char* end = nullptr;
   const double d = std::strtod(number.c_str(), &end);
   if (number.empty() || end != number.c_str() + number.size() || errno != 0 || !std::isfinite(d)) {
-    throw Error(what + " expects an angle (radians, or e.g. 90deg), got '" + text + "'");
+    throw ValueTypeError(what + " expects an angle (radians, or e.g. 90deg), got '" + text + "'");
   }
   const double radians = d * scale;
   if (std::abs(radians) > max_abs + 1e-9) {

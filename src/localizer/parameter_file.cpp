@@ -2,12 +2,17 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <vector>
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/input_file.hpp"
+#include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {
@@ -58,6 +63,24 @@ std::string scalar_text(const YAML::Node& node, const std::string& file, const s
   return v;
 }
 
+bool is_json(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  return ext == ".json" || ext == ".JSON";
+}
+
+// YAML reads JSON as flow style, which also allows what JSON does not (a trailing comma, comments, unquoted words);
+// a .json file is held to JSON.
+void check_strict_json(const std::string& text, const std::string& path) {
+  try {
+    const nlohmann::json parsed = nlohmann::json::parse(text);
+    static_cast<void>(parsed);  // only whether it parses matters
+  } catch (const nlohmann::json::parse_error& e) {
+    throw Error(path + ": not valid JSON: " + one_line(e.what()));
+  } catch (const nlohmann::json::exception&) {
+    // A number beyond a double's range: the field is named below (scalar_text).
+  }
+}
+
 class Flattener {
  public:
   explicit Flattener(std::string file) : file_(std::move(file)) {}
@@ -72,6 +95,12 @@ class Flattener {
         add(kv.second, prefix.empty() ? key : prefix + "." + key, depth + 1);
       }
     } else if (node.IsSequence()) {
+      // A list is the value of a parameter that takes several (init's six numbers, init_height_band's two); one of
+      // a single item would otherwise read as that item ({"sigma_hit": [1]}), an empty one as an empty value.
+      if (node.size() < 2) {
+        throw Error(file_ + ": " + prefix + ": a list of " + std::to_string(node.size()) +
+                    " items; give a single value without brackets");
+      }
       std::string joined;
       for (const auto& item : node) {
         if (!item.IsScalar()) throw Error(file_ + ": " + prefix + ": lists may only hold numbers or words");
@@ -110,8 +139,15 @@ class Flattener {
 std::map<std::string, std::string> read_parameter_file(const std::string& path) {
   const std::string text = read_input_file(path, "config file", limits::kMaxConfigFileBytes);
   check_text(text, path);
+  if (is_json(path)) check_strict_json(text, path);
   try {
-    const YAML::Node root = YAML::Load(text);
+    const std::vector<YAML::Node> documents = YAML::LoadAll(text);
+    // The parameters are the file's one document: a second one (after ---) would otherwise be dropped unread.
+    if (documents.size() > 1) {
+      throw Error(path + ": holds " + std::to_string(documents.size()) +
+                  " YAML documents (separated by ---); a parameter file is one");
+    }
+    const YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
     if (!root.IsMap()) throw Error(path + ": expected a map of parameter names to values");
     Flattener flattener(path);
     flattener.add(root, "", 0);

@@ -341,14 +341,7 @@ class Progress {
 };
 
 inline void validate(const CloudMapOptions& o) {
-  if (!(o.voxel_size > 0.0f) || !std::isfinite(o.voxel_size)) {
-    throw Error("voxel size must be positive, got " + std::to_string(o.voxel_size));
-  }
-  if (!(o.truncation >= o.voxel_size) || !std::isfinite(o.truncation)) {
-    throw Error("truncation (" + std::to_string(o.truncation) + " m) must be at least the voxel size (" +
-                std::to_string(o.voxel_size) + " m)");
-  }
-  if (!(o.margin >= 0.0f) || !std::isfinite(o.margin)) throw Error("margin must not be negative");
+  check_build_geometry(o.voxel_size, o.truncation, o.margin);
   if (!(o.max_range > 0.0f) || !std::isfinite(o.max_range)) throw Error("max range must be positive");
   TsdfMap::validate_geometry(o.voxel_size, o.truncation, Vector3i::Zero(), Vector3i::Ones());
 }

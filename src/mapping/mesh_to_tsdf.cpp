@@ -363,12 +363,7 @@ void fill_free_space(TsdfMap& map, const BlockGrid& grid, const std::vector<int>
 TsdfMap build_map_from_mesh(const TriangleMesh& mesh, const MeshMapOptions& options, const ProgressFn& progress) {
   const float vs = options.voxel_size;
   const float trunc = options.truncation;
-  if (!(vs > 0.0f) || !std::isfinite(vs)) throw Error("voxel size must be positive, got " + std::to_string(vs));
-  if (!(trunc >= vs) || !std::isfinite(trunc)) {
-    throw Error("truncation (" + std::to_string(trunc) + " m) must be at least the voxel size (" + std::to_string(vs) +
-                " m)");
-  }
-  if (!(options.margin >= 0.0f) || !std::isfinite(options.margin)) throw Error("margin must not be negative");
+  check_build_geometry(vs, trunc, options.margin);
   if (mesh.triangles.empty()) throw Error("mesh has no triangles");
   const Surface surface = prepare_surface(mesh);
 

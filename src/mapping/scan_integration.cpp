@@ -375,17 +375,10 @@ class Accumulator {
 };
 
 void validate(const Dataset& dataset, const std::vector<std::size_t>& scans, const ScanMapOptions& o) {
-  if (!(o.voxel_size > 0.0f) || !std::isfinite(o.voxel_size)) {
-    throw Error("voxel size must be positive, got " + std::to_string(o.voxel_size));
-  }
-  if (!(o.truncation >= o.voxel_size) || !std::isfinite(o.truncation)) {
-    throw Error("truncation (" + std::to_string(o.truncation) + " m) must be at least the voxel size (" +
-                std::to_string(o.voxel_size) + " m)");
-  }
+  check_build_geometry(o.voxel_size, o.truncation, o.margin);
   if (!(o.min_range >= 0.0f) || !(o.max_range > o.min_range) || !std::isfinite(o.max_range)) {
     throw Error("range limits must satisfy 0 <= min_range < max_range (finite)");
   }
-  if (!(o.margin >= 0.0f) || !std::isfinite(o.margin)) throw Error("margin must not be negative");
   if (!dataset.has_poses())
     throw Error("dataset " + dataset.dir().string() + " has no poses.txt (needed to place the scans)");
   if (scans.empty()) throw Error("no scans selected for the map");

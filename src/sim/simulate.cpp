@@ -63,9 +63,14 @@ void validate(const SimulationOptions& o) {
   const OdometryNoise& n = o.odometry;
   require(n.relative >= 0.0 && n.rotation_per_meter >= 0.0 && n.translation_floor >= 0.0 && n.rotation_floor >= 0.0,
           "odometry noise must not be negative");
+  // Noise as large as the motion itself is already no odometry; beyond, the drift leaves every map (1e300: NaN).
+  require(n.relative <= 1.0 && n.rotation_per_meter <= 10.0 && n.translation_floor <= 1.0 && n.rotation_floor <= 1.0,
+          "odometry noise must be at most 1 (--odom_noise: sigma as large as the motion)");
   require(o.duration_s >= 0.0 && o.length_m >= 0.0, "duration and length must not be negative");
   require(o.duration_s == 0.0 || o.length_m == 0.0, "give a duration or a length, not both");
-  require(o.scan_spacing_m >= 0.0, "scan spacing must not be negative");
+  // Spacing below a centimetre keeps every sweep anyway (the platforms move more per sweep).
+  require(o.scan_spacing_m == 0.0 || (o.scan_spacing_m >= 0.01 && o.scan_spacing_m <= 100.0),
+          "scan spacing must be 0 (every sweep) or in [0.01, 100] m");
   require(o.obstacles == 0 || o.route == RouteKind::test,
           "obstacles are unmapped objects: they belong in test runs, not in the mapping run");
   require(o.obstacles <= 1000, "at most 1000 obstacles");

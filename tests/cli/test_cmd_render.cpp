@@ -72,9 +72,18 @@ void write_inputs(const TempDir& dir) {
   tsdf_mcl::write_particle_snapshot(dir / "end.part", end);
 }
 
+// Pixels that differ between two images (all of them where the sizes differ).
+std::size_t differing_pixels(const tsdf_mcl::Image& a, const tsdf_mcl::Image& b) {
+  if (a.width() != b.width() || a.height() != b.height()) return a.pixels().size();
+  std::size_t differ = 0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) differ += a.at(x, y) == b.at(x, y) ? 0 : 1;
+  return differ;
+}
+
 }  // namespace
 
-TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
+TEST(RenderCli, GoodRunWritesThePngTheLibraryDraws) {
   TempDir dir;
   write_inputs(dir);
   const std::string d = "'" + dir.path().string() + "'";
@@ -89,8 +98,10 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   // The library, given the same inputs, lays out the same figure.
   const tsdf_mcl::MapRaster raster(tsdf_mcl::load_map(dir / "room.tsdf"), {});
   std::vector<tsdf_mcl::TrajectoryOverlay> trajectories(2);
-  trajectories[0].poses = tsdf_mcl::Dataset::open(dir / "data").poses();
-  trajectories[0].label = "ground truth";
+  // As the command draws them (docs: a wide translucent ground truth, each estimate in the palette's first colour).
+  trajectories[0] = {
+      "ground truth", tsdf_mcl::Dataset::open(dir / "data").poses(), tsdf_mcl::colors::kBlack, 7.0f, 0.3f, false};
+  trajectories[1].color = tsdf_mcl::palette_color(0);
   for (const auto& s : tsdf_mcl::read_tum(dir / "run/trajectory.tum")) trajectories[1].poses.push_back(s.pose);
   trajectories[1].label = "run (final error 0.10 m, 0.0 deg)";
   std::vector<tsdf_mcl::MapPanel> panels(2);
@@ -110,11 +121,13 @@ TEST(RenderCli, GoodRunWritesAPngOfTheExpectedSize) {
   options.metres_per_pixel = 0.02;
   options.title = "small room";
   const tsdf_mcl::MapFigure expected = tsdf_mcl::render_map_view(raster, trajectories, panels, options);
-  EXPECT_EQ(image.width(), expected.image.width());
-  EXPECT_EQ(image.height(), expected.image.height());
+  ASSERT_EQ(image.width(), expected.image.width());
+  ASSERT_EQ(image.height(), expected.image.height());
   // Two panels of (4 m + 2 x 0.5 m padding + the map's outer voxel) / 2 cm side by side.
   EXPECT_GT(image.width(), 2 * 250);
   EXPECT_GT(image.height(), 200);
+  // The same figure, pixel for pixel: a caption, a marker or a trajectory the command drew otherwise shows here.
+  EXPECT_EQ(differing_pixels(image, expected.image), 0u) << "of " << image.width() * image.height();
 }
 
 TEST(RenderCli, SliceAndDefaultsWork) {
@@ -126,8 +139,38 @@ TEST(RenderCli, SliceAndDefaultsWork) {
   r = run_cli(dir, "render --map " + d + "/room.tsdf --z_min 0.2 --z_max 0.9 --particles " + d +
                        "/end.part --headings --panel_size 300 --output " + d + "/proj.png");
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // What the library draws with the options the command documents as defaults (a 1000-pixel panel, the snapshot's
+  // file name as its caption).
+  const tsdf_mcl::TsdfMap map = tsdf_mcl::load_map(dir / "room.tsdf");
+  tsdf_mcl::MapRasterOptions slice;
+  slice.slice_z = 0.5f;
+  tsdf_mcl::MapViewOptions view;
+  view.panel_pixels = 1000;
+  const tsdf_mcl::Image slice_image = tsdf_mcl::load_png(dir / "slice.png");
+  const tsdf_mcl::MapFigure slice_figure = tsdf_mcl::render_map_view(tsdf_mcl::MapRaster(map, slice), {}, {}, view);
+  ASSERT_EQ(slice_image.width(), slice_figure.image.width());
+  ASSERT_EQ(slice_image.height(), slice_figure.image.height());
+  EXPECT_EQ(differing_pixels(slice_image, slice_figure.image), 0u);
+  tsdf_mcl::MapRasterOptions band;
+  band.z_min = 0.2f;
+  band.z_max = 0.9f;
+  tsdf_mcl::MapPanel panel;
+  panel.particles = tsdf_mcl::read_particle_snapshot(dir / "end.part");
+  panel.caption = "end  -  200 particles";
+  panel.markers = tsdf_mcl::hypothesis_markers(panel.particles);
+  view.panel_pixels = 300;
+  view.particle_headings = true;
   const tsdf_mcl::Image image = tsdf_mcl::load_png(dir / "proj.png");
+  const tsdf_mcl::MapFigure figure = tsdf_mcl::render_map_view(tsdf_mcl::MapRaster(map, band), {}, {panel}, view);
   EXPECT_GE(image.width(), 300);
+  ASSERT_EQ(image.width(), figure.image.width());
+  ASSERT_EQ(image.height(), figure.image.height());
+  EXPECT_EQ(differing_pixels(image, figure.image), 0u);
+  tsdf_mcl::MapPanel empty;
+  empty.caption = panel.caption;
+  EXPECT_GT(differing_pixels(image, tsdf_mcl::render_map_view(tsdf_mcl::MapRaster(map, band), {}, {empty}, view).image),
+            0u)
+      << "the particles show";
   r = run_cli(dir, "render --help");
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("--particles"), std::string::npos);

@@ -91,6 +91,11 @@ TEST(SimCli, ScenePlatformAndRouteOptionsRejectBadValues) {
       {"--scene two-storey --route mapping --storey 1", "--storey"},
       {"--route mapping --walkers 2", "walkers"},
       {"--walkers 60", "at most 50 walkers"},
+      // Odometry noise of 1e300 wrote -nan into odom.txt with exit 0; a spacing of 1e-9 m keeps every sweep anyway.
+      {"--duration 2 --odom_noise 1e300", "odometry noise must be at most 1"},
+      {"--duration 2 --odom_noise 1.01", "odometry noise must be at most 1"},
+      {"--duration 2 --scan_spacing 1e-9", "scan spacing must be 0 (every sweep) or in [0.01, 100] m"},
+      {"--duration 2 --scan_spacing 1e9", "scan spacing must be 0 (every sweep) or in [0.01, 100] m"},
   };
   for (const auto& [options, words] : cases) {
     tsdf_mcl::test::expect_one_line_error(dir, "simulate " + options + " -o " + (dir / "out").string(), words);

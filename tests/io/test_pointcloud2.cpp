@@ -228,9 +228,9 @@ TEST(PointCloud2, HostileSizesAreErrors) {
     l.row_step = 60;  // rows 60 bytes apart: 2 * 60 + 24 = 144 > 120
     expect_hostile(l, "need 144");
   }
-  {
-    PointCloud2Layout l = xyz_float32(3, 2);
-    l.row_step = 20;  // less than a row of points
+  for (const std::uint32_t height : {2u, 1u}) {
+    PointCloud2Layout l = xyz_float32(3, height);
+    l.row_step = 20;  // less than a row of points: a corrupt message, also where a single row does not need it
     expect_hostile(l, "row_step 20 is less than width 3 * point_step 12");
   }
   {
@@ -245,6 +245,9 @@ TEST(PointCloud2, HostileSizesAreErrors) {
     PointCloud2Layout l = xyz_float32(5);
     l.point_step = 0xFFFFFFFFu;
     l.row_step = 0xFFFFFFFFu;
+    expect_hostile(l, "row_step 4294967295 is less than width 5 * point_step 4294967295");
+    l.width = 1;  // rows of one huge point, 2^32 - 1 bytes apart
+    l.height = 2;
     expect_hostile(l, "data holds 120 bytes");
   }
 }

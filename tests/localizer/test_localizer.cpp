@@ -72,6 +72,9 @@ TEST(Localizer, FindsTheRobotFromNoInitialGuessAndSummarizesTheRun) {
   EXPECT_LT(s.particles_final, 20000u) << "KLD-sampling shrinks the set once it converged";
   EXPECT_GT(s.update_ms_mean, 0.0);
   EXPECT_LE(s.update_ms_median, s.update_ms_max);
+  // The mean is a mean: at most the slowest update, at least its share of the sum.
+  EXPECT_LE(s.update_ms_mean, s.update_ms_max);
+  EXPECT_GE(s.update_ms_mean * static_cast<double>(s.updates), s.update_ms_max);
 
   // The snapshot is the particle set with normalized weights; the records serialize.
   const ParticleSnapshot snapshot = localizer.snapshot();

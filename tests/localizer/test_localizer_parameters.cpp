@@ -164,5 +164,39 @@ TEST(ParameterFile, HostileFilesAreOneErrorNamingFileAndField) {
   EXPECT_EQ(read_parameter_file((dir / "nested.json").string()).at("initial_pose.y"), "2");
 }
 
+// A parameter file is one YAML document, a .json file is JSON, and a list is the value of a parameter that takes
+// several: the forms yaml-cpp would otherwise read into something else.
+TEST(ParameterFile, StrictFormsAreOneErrorNamingTheFile) {
+  TempDir dir;
+  std::string e = file_error(dir, "two.yaml", "particles: 100\n---\nparticles: 5\n");
+  EXPECT_NE(e.find("two.yaml: holds 2 YAML documents"), std::string::npos) << e;
+  e = file_error(dir, "comma.json", R"({"particles": 100,})");
+  EXPECT_NE(e.find("comma.json: not valid JSON"), std::string::npos) << e;
+  EXPECT_EQ(file_error(dir, "comma.yaml", "{particles: 100,}"), "") << "YAML's flow style allows it";
+  e = file_error(dir, "one.json", R"({"sigma_hit": [1]})");
+  EXPECT_NE(e.find("one.json: sigma_hit: a list of 1 items"), std::string::npos) << e;
+  e = file_error(dir, "none.yaml", "ignore_imu: []\n");
+  EXPECT_NE(e.find("none.yaml: ignore_imu: a list of 0 items"), std::string::npos) << e;
+  EXPECT_EQ(file_error(dir, "band.json", R"({"init_height_band": [0.2, 1.5], "init": [1, 2, 0, 0, 0, 0]})"), "");
+}
+
+TEST(LocalizerParameters, TypesAreCheckedValueByValue) {
+  EXPECT_NO_THROW(check_parameter_types({{"particles", "100"}, {"min_particles", "900000"}, {"sigma_hit", "0.2"}}))
+      << "a value of the right kind passes, whatever the others (min_particles beyond max_particles)";
+  const std::vector<std::pair<std::string, std::string>> wrong = {
+      {"particles", "many"}, {"particles", "true"},   {"sigma_hit", "1,2"},      {"ignore_imu", "7"},
+      {"backend", "cuda"},   {"init", "1,2,3"},       {"init_height_band", "1"}, {"update_min_a", "fast"},
+      {"motion_model", "x"}, {"laser_sigma_hit", "w"}};
+  for (const auto& [name, value] : wrong) {
+    try {
+      check_parameter_types({{"seed", "1"}, {name, value}});
+      ADD_FAILURE() << name << " = " << value << " passed";
+    } catch (const Error& e) {
+      const std::string canonical = name == "laser_sigma_hit" ? "sigma_hit" : name;
+      EXPECT_NE(std::string(e.what()).find(canonical), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsdf_mcl

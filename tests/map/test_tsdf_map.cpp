@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <string>
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/map/tsdf_map.hpp"
@@ -100,4 +101,35 @@ TEST(TsdfMap, CompactTurnsUniformBlocksIntoSentinels) {
   const auto st = map.stats();
   EXPECT_EQ(st.free_blocks, 1u);
   EXPECT_EQ(st.allocated_blocks, 1u);
+}
+
+// The blocks just past the map's box on each axis (and just before it) are outside: no cell, no value, no write.
+// Every block inside is free space, so that an index one past the upper edge, wrapping into the next row of the
+// coarse index (or past its end), would read as known.
+TEST(TsdfMap, TheBlockJustPastTheBoxOnEachAxisIsOutside) {
+  TsdfMap map = TsdfMap::covering(0.1f, 0.3f, Vector3f(0.0f, 0.0f, 0.0f), Vector3f(1.9f, 2.7f, 1.1f));
+  const Vector3i lo = map.min_block(), dims = map.dims_blocks();
+  ASSERT_TRUE((dims.array() >= 2).all()) << "a box of several blocks per axis";
+  for (int z = 0; z < dims.z(); ++z)
+    for (int y = 0; y < dims.y(); ++y)
+      for (int x = 0; x < dims.x(); ++x) map.mark_block_free(lo + Vector3i(x, y, z));
+  for (int a = 0; a < 3; ++a) {
+    for (const bool upper : {true, false}) {
+      Vector3i inside = lo, outside = lo;
+      inside[a] = upper ? lo[a] + dims[a] - 1 : lo[a];
+      outside[a] = upper ? lo[a] + dims[a] : lo[a] - 1;
+      const std::string where = "axis " + std::to_string(a) + (upper ? " upper" : " lower");
+      EXPECT_GE(map.coarse_cell(inside), 0) << where;
+      EXPECT_EQ(map.block_entry(inside), TsdfMap::kFreeBlock) << where;
+      EXPECT_EQ(map.coarse_cell(outside), -1) << where;
+      EXPECT_EQ(map.block_entry(outside), TsdfMap::kUnknownBlock) << where;
+      const Vector3i voxel = outside * TsdfMap::kBlockSize + Vector3i::Constant(3);
+      EXPECT_EQ(map.quantized(voxel), TsdfMap::kUnknownValue) << where;
+      EXPECT_FALSE(map.distance(voxel)) << where;
+      EXPECT_FALSE(map.nearest(map.center_of(voxel)).known) << where;
+      EXPECT_THROW(map.set_distance(voxel, 0.1f), tsdf_mcl::Error) << where;
+      EXPECT_THROW(map.set_block(outside, {}), tsdf_mcl::Error) << where;
+      EXPECT_TRUE(map.nearest(map.center_of(inside * TsdfMap::kBlockSize)).known) << where;
+    }
+  }
 }

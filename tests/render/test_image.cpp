@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -291,12 +290,10 @@ TEST(ImageCanvas, HugeCoordinatesKeepTheVisiblePartsExact) {
   image.fill_rect(-1e30f, 70.0f, 1e30f, 71.0f, colors::kBlack);
   EXPECT_EQ(image.at(3, 70), colors::kBlack);
 
-  // A dashed line billions of pixels long costs only its visible part, and its dashes stay in phase.
+  // A dashed line billions of pixels long keeps its dashes in phase (what it costs: bench/render_clip_bench.cpp).
   Image dashes(100, 20);
-  const auto start = std::chrono::steady_clock::now();
   dashes.draw_dashed_line({0.0f, 10.5f}, {4e9f, 10.5f}, colors::kBlack, 1.0f, 10.0f);
   dashes.draw_dashed_polyline({{-4e9f, 5.5f}, {4e9f, 5.5f}}, colors::kBlack, 1.0f, 10.0f);
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
   EXPECT_TRUE(dark(dashes.at(5, 10)));
   EXPECT_EQ(dashes.at(15, 10), colors::kWhite);
   EXPECT_TRUE(dark(dashes.at(25, 10)));

@@ -20,11 +20,6 @@
 namespace tsdf_mcl::cli {
 namespace {
 
-// The valid --voxel and --truncation (m): a map of 2 m voxels locates nothing; a band of more than 64 voxels or
-// 10 m makes every ray cost thousands of voxel updates.
-constexpr double kMinVoxel = 0.005, kMaxVoxel = 2.0;
-constexpr double kMaxTruncationVoxels = 64.0, kMaxTruncation = 10.0;
-
 namespace fs = std::filesystem;
 
 // A build stage's progress (progress.hpp: a live line on a terminal, a line every few seconds in a log). Nothing
@@ -121,7 +116,7 @@ void check_sources_and_output(const Options& o) {
   if (!o.has("output")) throw Error("missing -o MAP (the map file to write)");
   const fs::path output = o.text("output");
   if (output.empty()) throw Error("-o needs a file name");
-  check_output_file(output, "map");
+  check_output_file(output, "map", input_paths(o, {"mesh", "cloud", "trajectory", "bag", "import_h5", "dataset"}));
   if (!scans_source) {
     for (const char* name : {"start", "stride", "count", "laser_min_range"}) {
       if (o.has(name)) throw Error(std::string("build-map: --") + name + " applies to --dataset and --bag only");
@@ -151,18 +146,8 @@ BuildGeometry build_geometry(const Options& o, bool h5) {
   BuildGeometry g;
   g.voxel = h5 ? 0.064 : o.number("voxel");
   g.truncation = o.has("truncation") ? o.number("truncation") : (h5 ? 0.6 : kDefaultTruncation);
-  if (!(g.voxel >= kMinVoxel && g.voxel <= kMaxVoxel)) {
-    throw Error("--voxel must be in " + format("%g..%g m", kMinVoxel, kMaxVoxel) + ", got " + o.text("voxel"));
-  }
-  // The band integrated around every ray is truncation / voxel voxels deep: bounded so a build ends in its time.
-  const double max_truncation = std::min(kMaxTruncationVoxels * g.voxel, kMaxTruncation);
-  if (!(g.truncation >= g.voxel && g.truncation <= max_truncation)) {
-    throw Error("--truncation must be in " + format("%g..%g m", g.voxel, max_truncation) + " (at least the voxel, " +
-                "at most " + format("%g", kMaxTruncationVoxels) + " voxels and " + format("%g m", kMaxTruncation) +
-                "), got " + format("%g m", g.truncation));
-  }
   g.margin = o.number("margin");
-  if (g.margin < 0.0) throw Error("--margin must not be negative");
+  check_build_geometry(g.voxel, g.truncation, g.margin, {"--voxel", "--truncation", "--margin"});
   g.max_memory = std::uint64_t{o.count("max_memory", std::size_t{1} << 30)} << 20;
   return g;
 }

@@ -360,7 +360,9 @@ int run_evaluate(int argc, char** argv) {
   }
   o.expect_positional(0, "no positional arguments");
   const std::string estimate_file = o.text("estimate");
-  if (const auto plot = o.maybe("plot")) check_output_file(*plot, "plot");
+  if (const auto plot = o.maybe("plot")) {
+    check_output_file(*plot, "plot", input_paths(o, {"estimate", "report", "bag", "dataset"}));
+  }
   const Dataset dataset = open_dataset(o);
   if (!dataset.has_poses()) throw Error(dataset.missing_poses() + " (ground truth)");
   const MetricsOptions mo = metrics_options(o);

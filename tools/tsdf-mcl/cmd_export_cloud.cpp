@@ -33,7 +33,7 @@ int run_export_cloud(int argc, char** argv) {
   if (!o.has("dataset")) throw Error("missing --dataset DIR");
   if (!o.has("output")) throw Error("missing -o FILE.pcd");
   const std::string output = o.text("output");
-  check_output_file(output, "cloud");
+  check_output_file(output, "cloud", input_paths(o, {"dataset"}));
   const Dataset dataset = Dataset::open(o.text("dataset"));
   const std::vector<std::size_t> scans =
       ScanSelection{o.count("start"), o.count("stride"), o.count("count")}.indices(dataset.size());

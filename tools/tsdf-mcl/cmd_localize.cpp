@@ -24,6 +24,7 @@
 #include "tsdf_mcl/core/limits.hpp"
 #include "tsdf_mcl/localizer/localization_report.hpp"
 #include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/localizer/map_extent_checks.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
 #include "tsdf_mcl/io/particle_snapshot.hpp"
@@ -114,6 +115,17 @@ std::vector<std::size_t> selected_scans(const Options& o, const Dataset& dataset
   // only be found while reading them.
   dataset.check_scans_not_empty(scans);
   return scans;
+}
+
+// The selected scans' odometry against the map before any work starts, as the localizer would check each scan's
+// (map_extent_checks.hpp): a jump found there would end the run after its first scans.
+void check_odometry_steps(const Dataset& dataset, const std::vector<std::size_t>& scans, const TsdfMap& map) {
+  if (!dataset.has_odometry()) return;
+  std::optional<Pose> previous;
+  for (const std::size_t i : scans) {
+    check_odometry(map, dataset.odometry(i), previous, dataset.scan_path(i).string() + ": the scan's odometry");
+    previous = dataset.odometry(i);
+  }
 }
 
 // --snapshot_every: where the particle sets go and how often.
@@ -303,6 +315,7 @@ int run_localize(int argc, char** argv) {
   // fed as a live IMU would deliver them: up to just past each scan's time.
   const std::vector<ImuSample> imu = lo.use_imu ? dataset.imu() : std::vector<ImuSample>{};
   const TsdfMap map = load_map(o.text("map"));
+  check_odometry_steps(dataset, scans, map);
   Localizer localizer(map, lo);
   Progress progress("localize", verbosity_of(o), "scans");
   if (!dataset.summary().empty()) progress.note(dataset.summary());

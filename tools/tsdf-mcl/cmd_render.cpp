@@ -89,7 +89,7 @@ RenderSettings render_settings(const Options& o) {
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return std::tolower(c); });
   if (extension != ".png") throw Error("the output must be a .png file, got " + r.output.string());
-  check_output_file(r.output, "image");
+  check_output_file(r.output, "image", input_paths(o, {"map", "estimate", "particles", "ground_truth"}));
   if (o.has("z_min")) r.raster.z_min = static_cast<float>(o.number("z_min"));
   if (o.has("z_max")) r.raster.z_max = static_cast<float>(o.number("z_max"));
   if (o.has("slice")) {

@@ -208,7 +208,7 @@ std::unique_ptr<BagWriter> open_bag(const Options& o, sim::SimulationOptions& s)
   const std::filesystem::path bag_file = std::filesystem::path(*bag_option).filename().empty()
                                              ? std::filesystem::path(*bag_option).parent_path()
                                              : std::filesystem::path(*bag_option);
-  check_output_file(bag_file, "bag");
+  check_output_file(bag_file, "bag", input_paths(o, {"scene", "lidar"}));
   auto bag = std::make_unique<BagWriter>(bag_file);
   s.on_scan = [writer = bag.get()](const sim::SimulatedScan& scan) {
     if (writer->scans() == 0) writer->set_base_T_sensor(scan.base_T_sensor);

@@ -34,6 +34,7 @@ void apply_config(Options& o, const std::string& file) {
   std::map<std::string, std::string> values;
   try {
     values = canonical_parameters(read_parameter_file(file));
+    check_parameter_types(values);  // also the values the command line overrides below
   } catch (const Error& e) {
     const std::string what = e.what();
     throw Error(what.rfind(file, 0) == 0 ? what : file + ": " + what);

@@ -233,6 +233,26 @@ void Options::expect_positional(std::size_t n, const std::string& what) const {
   }
 }
 
+std::vector<std::filesystem::path> input_paths(const Options& o, const std::vector<std::string>& names) {
+  std::vector<std::filesystem::path> paths;
+  for (const std::string& name : names) {
+    if (!o.has(name)) continue;
+    const std::string text = o.text(name);
+    paths.emplace_back(text);  // a file whose name holds a comma, whole
+    std::stringstream ss(text);
+    for (std::string item; std::getline(ss, item, ',');) {
+      if (!item.empty() && item != text) paths.emplace_back(item);
+    }
+    std::error_code ec;
+    if (std::filesystem::is_directory(text, ec)) {  // a dataset: its text files (docs/architecture.md)
+      for (const char* file : {"times.txt", "poses.txt", "odom.txt", "imu.txt"}) {
+        paths.push_back(std::filesystem::path(text) / file);
+      }
+    }
+  }
+  return paths;
+}
+
 double angle_in_degrees(const std::string& text, const std::string& what, double max_abs) {
   const bool has_unit =
       text.size() > 3 && (text.compare(text.size() - 3, 3, "deg") == 0 || text.compare(text.size() - 3, 3, "rad") == 0);

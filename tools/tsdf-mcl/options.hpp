@@ -1,6 +1,7 @@
 #pragma once
 // A small declarative option parser: each command lists its options (name, default, help), so unknown
 // options, missing values and bad numbers are caught in one place and --help prints every default.
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
@@ -52,6 +53,10 @@ class Options {
   std::vector<std::string> positional_;
   bool help_ = false;
 };
+
+// The files the given options among `names` name (comma-separated lists split; a dataset folder's text files), for
+// check_output_file's inputs: an output must not replace one of the command's own inputs.
+std::vector<std::filesystem::path> input_paths(const Options& o, const std::vector<std::string>& names);
 
 // An angle as text in degrees, or with an explicit unit ("90deg", "1.57rad"); radians back. Error naming `what`
 // for a non-number or a magnitude beyond max_abs radians.

@@ -1,38 +1,12 @@
 #include "output_folder.hpp"
 
-#include <signal.h>
 #include <unistd.h>
-
-#include <cerrno>
-#include <charconv>
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/atomic_file.hpp"
 
 namespace tsdf_mcl::cli {
 namespace fs = std::filesystem;
-
-namespace {
-
-// Removes `.NAME.partial-PID` folders beside `folder` whose process no longer runs (a run killed by a timeout or
-// a signal cannot remove its own); a live process's, or one of another user's, stays.
-void remove_stale_partials(const fs::path& folder) {
-  const std::string prefix = "." + folder.filename().string() + ".partial-";
-  std::error_code ec;
-  for (fs::directory_iterator it(folder.parent_path(), ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.rfind(prefix, 0) != 0) continue;
-    const std::string digits = name.substr(prefix.size());
-    long pid = 0;
-    const auto [ptr, err] = std::from_chars(digits.data(), digits.data() + digits.size(), pid);
-    if (digits.empty() || err != std::errc() || ptr != digits.data() + digits.size() || pid <= 0) continue;
-    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
-    std::error_code ignored;
-    fs::remove_all(it->path(), ignored);
-  }
-}
-
-}  // namespace
 
 StagedOutputFolder::StagedOutputFolder(const fs::path& folder, std::vector<std::string> names)
     : names_(std::move(names)) {
@@ -49,7 +23,7 @@ StagedOutputFolder::StagedOutputFolder(const fs::path& folder, std::vector<std::
                 " does not exist");
   }
   if (fs::is_directory(folder_, ec)) check_output_file(folder_ / names_.front(), "results into");
-  remove_stale_partials(folder_);
+  remove_stale_partials(folder_.parent_path(), "." + folder_.filename().string() + ".partial-");
   staging_ = folder_.parent_path() / ("." + folder_.filename().string() + ".partial-" + std::to_string(::getpid()));
   fs::remove_all(staging_, ec);
   if (!fs::create_directory(staging_, ec) || ec) {

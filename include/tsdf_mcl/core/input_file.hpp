@@ -8,7 +8,8 @@
 namespace tsdf_mcl {
 
 // Size of the regular file `file`. Throws Error "WHAT FILE does not exist" / "is a directory" / "is not a regular
-// file" / "is larger than the limit" (`what` names the kind of file: "map", "mesh", "scan", ...).
+// file" / "is larger than the limit" / "file name holds a NUL character" (`what` names the kind of file: "map", "mesh",
+// "scan", ...).
 std::uint64_t input_file_size(const std::filesystem::path& file, const std::string& what, std::uint64_t max_bytes);
 // The whole file, after the checks of input_file_size.
 std::string read_input_file(const std::filesystem::path& file, const std::string& what, std::uint64_t max_bytes);

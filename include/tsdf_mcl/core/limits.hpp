@@ -48,6 +48,13 @@ inline constexpr std::uint64_t kMaxReportFileBytes = std::uint64_t{256} << 20;
 inline constexpr std::uint64_t kMaxConfigFileBytes = std::uint64_t{1} << 20;
 inline constexpr std::size_t kMaxConfigValues = 10000;
 
+// ------------------------------------------------------------------------------------------- poses, times
+// Timestamps (times.txt, Localizer::process): ROS 1 time runs to 2^32 s; a double still resolves them to 1 us.
+inline constexpr double kMaxAbsTime = 4294967296.0;
+// Positions of pose files and odometry (m): every voxel of a map lies within 2^24 voxels of 10 m (limits above), so
+// nothing a map holds is farther out; a double still resolves 2^28 m to 60 nm.
+inline constexpr double kMaxAbsPosition = 268435456.0;
+
 // ------------------------------------------------------------------------------------------ filter options
 inline constexpr std::size_t kMaxParticles = 10'000'000;  // --particles, --min_particles, --max_particles
 inline constexpr std::size_t kMaxBeams = 1 << 20;         // --max_beams

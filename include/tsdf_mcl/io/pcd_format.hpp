@@ -3,6 +3,7 @@
 // reader (CloudReader). Every header value is checked before it sizes memory or a loop.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,7 +14,8 @@ struct PcdHeader {
   std::vector<std::uint64_t> sizes, counts;
   std::vector<char> types;
   std::uint64_t points = 0;
-  std::string data;  // ascii, binary or binary_compressed
+  std::optional<std::uint64_t> width, height;  // where given, width x height = points (height 1 if not given)
+  std::string data;                            // ascii, binary or binary_compressed
   // Derived: byte offset of each field in a binary record, its first column in an ascii row, the record size.
   std::vector<std::size_t> offset, column;
   std::size_t stride = 0, columns = 0;

@@ -77,7 +77,8 @@ struct RunSummary {
 class Localizer {
  public:
   // Builds the sensor-update backend for `map` (options.evaluator; the map must outlive the localizer). Throws
-  // Error for bad parameters or, with Backend::kVulkan, no usable device.
+  // Error for bad parameters (pose inputs beyond the map: map_extent_checks.hpp) or, with Backend::kVulkan, no
+  // usable device.
   Localizer(const TsdfMap& map, const LocalizerOptions& options);
   ~Localizer();
   Localizer(const Localizer&) = delete;
@@ -91,11 +92,13 @@ class Localizer {
   // starts the global search unless an initial pose was given. `scan_id` names the scan in the preprocessing's
   // random streams (default: its number in this run; a dataset's index makes a run over a subset of its scans
   // pick the same points as a run over all of them). Throws Error for a scan with no point left after the range
-  // limits (the message names the limits). The record is valid until the next call.
+  // limits (the message names the limits), and for a stamp or odometry beyond the bounds of map_extent_checks.hpp
+  // (the localizer is then left as it was). The record is valid until the next call.
   const ScanRecord& process(double time, const std::vector<Eigen::Vector3f>& points,
                             const std::optional<Pose>& odometry, std::optional<std::uint64_t> scan_id = std::nullopt);
 
-  // Particles around `pose` now (local initialization), as an operator's "initial pose".
+  // Particles around `pose` now (local initialization), as an operator's "initial pose". Throws Error for a pose
+  // outside the map or a spread larger than the map (map_extent_checks.hpp).
   void reset_to(const Pose& world_T_sensor);
   // ... spread by `spread` instead of the options' (an initial pose given with its covariance).
   void reset_to(const Pose& world_T_sensor, const LocalInitSpread& spread);
@@ -114,6 +117,9 @@ class Localizer {
   const SensorEvaluator& evaluator() const { return *evaluator_; }
   const std::string& backend_note() const { return backend_note_; }
   const LocalizerOptions& options() const { return options_; }
+  // The odometry of the last scan processed with odometry since the last initialization (process() checks the next
+  // one's step against it).
+  const std::optional<Pose>& last_odometry() const { return last_odometry_; }
   const std::optional<InitializationRecord>& initialization() const { return initialization_; }
   RunSummary summary() const;
   // The particle set with its normalized weights (tsdf-mcl render --particles draws it).
@@ -132,6 +138,7 @@ class Localizer {
   std::optional<InitializationRecord> initialization_;
   bool pending_global_ = true;
   std::optional<Pose> pending_pose_;
+  std::optional<Pose> last_odometry_;  // see last_odometry()
   ScanRecord record_;
   // Summary bookkeeping.
   std::size_t scans_ = 0, updates_ = 0;

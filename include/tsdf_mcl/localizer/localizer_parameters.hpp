@@ -46,6 +46,11 @@ std::map<std::string, std::string> canonical_parameters(const std::map<std::stri
 // (with the closest known names), an alias given beside its parameter, or an invalid value.
 LocalizerOptions localizer_options_from(const std::map<std::string, std::string>& values);
 
+// Throws Error naming the parameter for a value that is not of its parameter's kind (a word for a number, a number
+// or a list for a flag, a name that is not among its choices), each value judged alone: a parameter file's value
+// that the command line overrides is checked too. Ranges and the values' agreement are localizer_options_from's.
+void check_parameter_types(const std::map<std::string, std::string>& values);
+
 // The known names closest to a mistyped one (edit distance, at most three, best first; empty if none is close):
 // the "did you mean" of every frontend.
 std::vector<std::string> closest_names(const std::string& name, const std::vector<std::string>& known);

@@ -6,12 +6,14 @@
 
 namespace tsdf_mcl {
 
-// Nested maps join their keys with '.' ({a: {b: 1}} -> "a.b" = "1"), lists become comma-separated values. Throws
-// Error naming the file (and the field, where one is at fault) if it is missing, not a regular file, larger than
-// limits::kMaxConfigFileBytes, not UTF-8 text (UTF-16/32, NUL bytes), not valid YAML/JSON, not a map, names a
-// field twice, holds a value with a control character (a NUL inside "0.1\0junk"), a JSON number beyond the range of
-// a double, is nested too deeply, or holds more than limits::kMaxConfigValues values once YAML aliases are followed
-// (an alias repeats a subtree, so a kilobyte of aliases can name billions of values).
+// Nested maps join their keys with '.' ({a: {b: 1}} -> "a.b" = "1"), lists of two or more items become
+// comma-separated values. Throws Error naming the file (and the field, where one is at fault) if it is missing, not
+// a regular file, larger than limits::kMaxConfigFileBytes, not UTF-8 text (UTF-16/32, NUL bytes), not valid
+// YAML/JSON (a .json file is held to JSON: no trailing comma), more than one YAML document, not a map, names a
+// field twice, holds a list of fewer than two items, a value with a control character (a NUL inside "0.1\0junk"), a
+// JSON number beyond the range of a double, is nested too deeply, or holds more than limits::kMaxConfigValues
+// values once YAML aliases are followed (an alias repeats a subtree, so a kilobyte of aliases can name billions of
+// values).
 std::map<std::string, std::string> read_parameter_file(const std::string& path);
 
 }  // namespace tsdf_mcl

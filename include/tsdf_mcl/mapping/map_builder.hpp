@@ -11,6 +11,18 @@
 
 namespace tsdf_mcl {
 
+// The geometry every builder accepts, and so build-map and the Python module (one check, named by the caller):
+// voxel size in [kMinBuildVoxel, kMaxBuildVoxel] m (a map of 2 m voxels locates nothing); truncation at least one
+// voxel, at most kMaxTruncationVoxels voxels and kMaxTruncation m (the band integrated around every ray is
+// truncation / voxel voxels deep: bounded so a build ends in its time); margin finite and not negative. Throws
+// Error naming names[0] (voxel), names[1] (truncation) or names[2] (margin).
+inline constexpr double kMinBuildVoxel = 0.005, kMaxBuildVoxel = 2.0;
+inline constexpr double kMaxTruncationVoxels = 64.0, kMaxTruncation = 10.0;
+struct BuildGeometryNames {
+  std::string voxel = "voxel size", truncation = "truncation", margin = "margin";
+};
+void check_build_geometry(double voxel, double truncation, double margin, const BuildGeometryNames& names = {});
+
 // Called with (done, total) while long work runs.
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
