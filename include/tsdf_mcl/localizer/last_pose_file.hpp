@@ -1,0 +1,53 @@
+#pragma once
+// The last converged pose in a small file, so that a localizer restarted where it stopped (a robot switched off and
+// on) starts there instead of searching the whole map, as nav2 AMCL users expect of its saved pose. The ROS nodes
+// keep one by default, `tsdf-mcl localize --last_pose_file FILE` on request. The file names the map it belongs to
+// by the map's geometry (voxel size, box, blocks), so a file written on another map is stale; a stale file, a pose
+// off the map or a corrupt file is one warning, and the localizer searches globally.
+//
+//   LastPoseFile last(path, map);
+//   std::string warning;
+//   if (auto pose = last.load(&warning)) options.initial_pose = pose;   // else: warning (empty if no file)
+//   ... after each converged estimate: last.keep(estimate.pose, time);   // at most once a second, atomically
+//   ... after the first update from it: initial_pose_misfit(step, options, *pose) -> search globally if not ""
+#include <chrono>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/filter/particle_filter.hpp"
+#include "tsdf_mcl/localizer/localizer.hpp"
+#include "tsdf_mcl/map/tsdf_map.hpp"
+
+namespace tsdf_mcl {
+
+class LastPoseFile {
+ public:
+  static constexpr double kMinIntervalSeconds = 1.0;
+
+  // `map` must outlive this object.
+  LastPoseFile(std::filesystem::path file, const TsdfMap& map);
+
+  // The kept pose, or nullopt: without a file (`warning` left empty), or with one that is corrupt, written on another
+  // map or off this one (`warning` says which, in one line).
+  std::optional<Pose> load(std::string* warning) const;
+  // Keeps `pose` (stamped `time`, s) unless the last write was less than kMinIntervalSeconds ago (wall time); the
+  // file is replaced atomically. Throws Error naming the file where it cannot be written.
+  void keep(const Pose& pose, double time);
+
+  const std::filesystem::path& file() const { return file_; }
+
+ private:
+  std::filesystem::path file_;
+  const TsdfMap& map_;
+  std::string map_id_;
+  std::optional<std::chrono::steady_clock::time_point> last_write_;
+};
+
+// Why the first filter update after starting at `initial` says the scan does not fit there, or "" when it fits: its
+// best hypothesis lies more than a metre away (the background search found a better place), or it fits fewer of the
+// scan's points than convergence needs (convergence.min_inlier_ratio).
+std::string initial_pose_misfit(const FilterStep& step, const LocalizerOptions& options, const Pose& initial);
+
+}  // namespace tsdf_mcl
