@@ -57,7 +57,14 @@ LocalizationCore::LocalizationCore(const NodeSettings& settings, const Localizer
   out_.publish_map_cloud(surface);
 }
 
-LocalizationCore::~LocalizationCore() = default;
+LocalizationCore::~LocalizationCore() {
+  if (!last_pose_ || !unkept_pose_) return;
+  try {
+    last_pose_->keep_now(unkept_pose_->first, unkept_pose_->second);
+  } catch (const Error& e) {
+    out_.log(LogLevel::kWarn, std::string("tsdf_mcl: ") + e.what());
+  }
+}
 
 void LocalizationCore::run(const std::function<bool()>& ok) {
   while (ok()) {
@@ -294,7 +301,9 @@ void LocalizationCore::follow_last_pose(const ScanRecord& record, Stamp stamp) {
   }
   if (!last_pose_ || record.step.state != TrackState::kConverged) return;
   try {
-    last_pose_->keep(record.step.estimate.pose, stamp.seconds());
+    const bool kept = last_pose_->keep(record.step.estimate.pose, stamp.seconds());
+    unkept_pose_.reset();
+    if (!kept) unkept_pose_ = std::make_pair(record.step.estimate.pose, stamp.seconds());
   } catch (const Error& e) {
     log_throttled("last_pose_file", 60.0, LogLevel::kWarn, std::string("tsdf_mcl: ") + e.what());
   }

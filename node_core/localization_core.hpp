@@ -49,6 +49,7 @@ class LocalizationCore {
   // Loads the map, starts the localizer (from the last pose file where it has a pose for this map and no initial
   // pose was given), publishes the map's surface. Throws Error for a bad map or options.
   LocalizationCore(const NodeSettings& settings, const LocalizerOptions& options, NodeOutput& output);
+  // Keeps the newest converged pose in the last pose file (the node stops where the robot stands).
   ~LocalizationCore();
 
   // From the transport's threads.
@@ -160,6 +161,8 @@ class LocalizationCore {
   bool estimate_valid_ = false;     // the filter has processed a scan since it (re)started
   double scan_period_ = 0.0;        // s, a running estimate from the stamps
   std::optional<Pose> from_last_pose_;  // the filter started at the last pose file's pose; its first update decides
+  // The newest converged estimate not yet in the last pose file (kept when the core stops).
+  std::optional<std::pair<Pose, double>> unkept_pose_;
 };
 
 }  // namespace tsdf_mcl::node

@@ -57,18 +57,22 @@ std::optional<Stamp> LocalizationCore::checked_stamp_locked(const RawStamp& stam
 }
 
 bool LocalizationCore::note_time_locked(const Stamp* scan_stamp) {
-  // Two signs: the clock going back (ROS time from /clock, as tf2's listener checks it), or, without sim time, the
-  // scans' stamps going back. Other messages' stamps are no sign: tf may be late (the node's own map -> odom carries
-  // the stamp of a scan that took seconds).
+  // Under a simulated clock, the clock going back (as tf2's listener checks it); without one, the scans' stamps going
+  // back. Not both: the clock's step back and the scans' come on different connections, and would restart the filter
+  // twice. Other messages' stamps are no sign: tf may be late (the node's own map -> odom carries the stamp of a scan
+  // that took seconds).
   const std::optional<Stamp> now = out_.now();
   char why[160] = "";
-  if (last_now_ && now && *now < *last_now_) {
-    std::snprintf(why, sizeof(why), "the clock went back from %.3f to %.3f s", last_now_->seconds(), now->seconds());
+  if (now) {
+    if (last_now_ && *now < *last_now_) {
+      std::snprintf(why, sizeof(why), "the clock went back from %.3f to %.3f s", last_now_->seconds(),
+                    now->seconds());
+    }
+    last_now_ = now;
   } else if (scan_stamp && newest_ && seconds_between(*scan_stamp, *newest_) > kTimeJumpSeconds) {
     std::snprintf(why, sizeof(why), "scan stamps went back from %.3f to %.3f s", newest_->seconds(),
                   scan_stamp->seconds());
   }
-  if (now) last_now_ = now;
   if (why[0]) newest_.reset();
   if (scan_stamp && (!newest_ || *scan_stamp > *newest_)) newest_ = *scan_stamp;
   if (!why[0]) return false;

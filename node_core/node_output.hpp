@@ -20,7 +20,8 @@ class NodeOutput {
   virtual void publish_diagnostics(const DiagnosticOut& status) = 0;  // /diagnostics
   virtual void send_transform(const TransformOut& transform) = 0;     // tf map -> odom
   virtual void publish_map_cloud(const CloudOut& cloud) = 0;          // ~map_cloud, latched
-  // The ROS clock (/clock under sim time, else the system's); nullopt while it has no time yet.
+  // The simulated ROS clock (/clock under sim time); nullopt on wall time or while /clock has said nothing yet. Time
+  // going back is the clock's going back where there is one, else the scans' stamps'.
   virtual std::optional<Stamp> now() = 0;
   virtual void log(LogLevel level, const std::string& text) = 0;
   // A parameter (dotted name: sensor_extrinsics.lidar) as users of this transport write it (~sensor_extrinsics/lidar).

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "localization_core.hpp"
+#include "heard_record.hpp"
 #include "message_checks.hpp"
 #include "node_link.hpp"
 
@@ -16,13 +17,13 @@ namespace tsdf_mcl::node::test {
 
 class RecordingOutput : public NodeOutput {
  public:
-  explicit RecordingOutput(double transform_tolerance) : tolerance_ns_(static_cast<std::int64_t>(transform_tolerance * 1e9)) {}
-  void publish_pose(const PoseOut& pose) override { record([&] { poses_[pose.stamp.ns] = pose; }); }
+  explicit RecordingOutput(double transform_tolerance) : heard_(transform_tolerance) {}
+  void publish_pose(const PoseOut& pose) override { heard_.pose(pose); }
   bool particles_wanted() override { return true; }
   void publish_particles(const PosesOut& p) override { record([&] { particles_ = p.poses.size(); }); }
   void publish_hypotheses(const PosesOut& h) override { record([&] { hypotheses_ = h; }); }
-  void publish_diagnostics(const DiagnosticOut& s) override { record([&] { statuses_[s.stamp.ns] = s; }); }
-  void send_transform(const TransformOut& t) override { record([&] { transforms_[t.stamp.ns - tolerance_ns_] = t; }); }
+  void publish_diagnostics(const DiagnosticOut& s) override { heard_.status(s); }
+  void send_transform(const TransformOut& t) override { heard_.map_odom(t); }
   void publish_map_cloud(const CloudOut& c) override { record([&] { map_cloud_points_ = c.cloud.layout.width; }); }
   std::optional<Stamp> now() override {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -38,21 +39,7 @@ class RecordingOutput : public NodeOutput {
     std::lock_guard<std::mutex> lock(mutex_);
     now_ = t;
   }
-  // Waits for the status of the scan at `stamp`, then takes it with its pose and transform.
-  std::optional<Heard> heard(Stamp stamp, std::chrono::seconds timeout) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    const bool used = cv_.wait_for(lock, timeout, [&] { return statuses_.count(stamp.ns) > 0; });
-    if (!used) return std::nullopt;
-    Heard h;
-    h.status = statuses_.at(stamp.ns);
-    if (const auto p = poses_.find(stamp.ns); p != poses_.end()) h.pose = p->second;  // published before the status
-    return h;
-  }
-  std::optional<TransformOut> map_odom(Stamp stamp, std::chrono::seconds timeout) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    if (!cv_.wait_for(lock, timeout, [&] { return transforms_.count(stamp.ns) > 0; })) return std::nullopt;
-    return transforms_.at(stamp.ns);
-  }
+  HeardRecord& heard() { return heard_; }
   bool logged(const std::string& text) {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const std::string& l : logs_)
@@ -79,13 +66,10 @@ class RecordingOutput : public NodeOutput {
     }
     cv_.notify_all();
   }
-  std::int64_t tolerance_ns_;
+  HeardRecord heard_;
   std::mutex mutex_;
   std::condition_variable cv_;
   std::optional<Stamp> now_;
-  std::map<std::int64_t, PoseOut> poses_;
-  std::map<std::int64_t, DiagnosticOut> statuses_;
-  std::map<std::int64_t, TransformOut> transforms_;
   PosesOut hypotheses_;
   std::size_t particles_ = 0, map_cloud_points_ = 0;
   std::vector<std::string> logs_;
@@ -113,6 +97,7 @@ class DirectLink : public NodeLink {
     m.data = encoded->data.data();
     m.size = encoded->data.size();
     m.owner = encoded;
+    output_.heard().forget(to_stamp(stamp));
     core_.on_cloud(0, m);
   }
   void odometry(const OdometryMsg& odometry) override { core_.on_odometry(odometry); }
@@ -124,10 +109,10 @@ class DirectLink : public NodeLink {
   void initial_pose(const InitialPoseMsg& pose) override { core_.on_initial_pose(pose); }
   void global_localization() override { core_.request_global_localization(); }
   std::optional<Heard> heard(const RawStamp& scan, std::chrono::seconds timeout) override {
-    return output_.heard(to_stamp(scan), timeout);
+    return output_.heard().heard(to_stamp(scan), timeout);
   }
   std::optional<TransformOut> map_odom(const RawStamp& scan, std::chrono::seconds timeout) override {
-    return output_.map_odom(to_stamp(scan), timeout);
+    return output_.heard().map_odom(to_stamp(scan), timeout);
   }
   bool alive() override { return true; }
 

@@ -204,6 +204,7 @@ void Ros1Node::send_transform(const node::TransformOut& transform) {
 void Ros1Node::publish_map_cloud(const node::CloudOut& cloud) { map_cloud_pub_.publish(msg_from_cloud(cloud)); }
 
 std::optional<node::Stamp> Ros1Node::now() {
+  if (!ros::Time::isSimTime()) return std::nullopt;
   const ros::Time t = ros::Time::now();
   if (t.isZero()) return std::nullopt;
   return node::Stamp{static_cast<std::int64_t>(t.sec) * 1000000000 + t.nsec};

@@ -11,10 +11,7 @@
 #include <std_srvs/Empty.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include <condition_variable>
-#include <map>
-#include <mutex>
-
+#include "heard_record.hpp"
 #include "message_checks.hpp"
 #include "node_link.hpp"
 #include "node_test_support.hpp"
@@ -26,7 +23,7 @@ class Ros1Link : public node::test::NodeLink {
  public:
   Ros1Link(ros::NodeHandle& nh, Child& node, double transform_tolerance)
       : node_(node),
-        tolerance_ns_(static_cast<std::int64_t>(transform_tolerance * 1e9)),
+        heard_(transform_tolerance),
         points_(nh.advertise<sensor_msgs::PointCloud2>("/points", 50)),
         odom_(nh.advertise<nav_msgs::Odometry>("/odom", 100)),
         imu_(nh.advertise<sensor_msgs::Imu>("/imu", 100)),
@@ -72,6 +69,7 @@ class Ros1Link : public node::test::NodeLink {
     out.cloud = encode_pointcloud2(cloud);
     sensor_msgs::PointCloud2 m = msg_from_cloud(out);
     m.header.stamp = stamp(t);
+    heard_.forget(node::to_stamp(t));
     points_.publish(m);
   }
   void odometry(const node::OdometryMsg& o) override {
@@ -121,21 +119,10 @@ class Ros1Link : public node::test::NodeLink {
     EXPECT_TRUE(ros::service::call("/global_localization", call));
   }
   std::optional<node::test::Heard> heard(const node::RawStamp& scan, std::chrono::seconds timeout) override {
-    const std::int64_t ns = node::to_stamp(scan).ns;
-    std::unique_lock<std::mutex> lock(mutex_);
-    if (!cv_.wait_for(lock, timeout, [&] { return statuses_.count(ns) > 0; })) return std::nullopt;
-    node::test::Heard h;
-    h.status = statuses_.at(ns);
-    // The pose goes out before the status, but on another connection: where the scan was used, wait for it.
-    if (h.used()) cv_.wait_for(lock, timeout, [&] { return poses_.count(ns) > 0; });
-    if (const auto p = poses_.find(ns); p != poses_.end()) h.pose = p->second;
-    return h;
+    return heard_.heard(node::to_stamp(scan), timeout);
   }
   std::optional<node::TransformOut> map_odom(const node::RawStamp& scan, std::chrono::seconds timeout) override {
-    const std::int64_t ns = node::to_stamp(scan).ns;
-    std::unique_lock<std::mutex> lock(mutex_);
-    if (!cv_.wait_for(lock, timeout, [&] { return map_odom_.count(ns) > 0; })) return std::nullopt;
-    return map_odom_.at(ns);
+    return heard_.map_odom(node::to_stamp(scan), timeout);
   }
   bool alive() override { return node_.running(); }
 
@@ -146,7 +133,6 @@ class Ros1Link : public node::test::NodeLink {
   static node::Stamp stamp_of(const ros::Time& t) { return node::to_stamp(raw_stamp(t)); }
 
   void on_status(const diagnostic_msgs::DiagnosticArrayConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& s : m->status) {
       if (s.name != "tsdf_mcl: localization") continue;
       node::DiagnosticOut d;
@@ -155,21 +141,17 @@ class Ros1Link : public node::test::NodeLink {
       d.name = s.name;
       d.message = s.message;
       for (const auto& kv : s.values) d.values.emplace_back(kv.key, kv.value);
-      statuses_[d.stamp.ns] = d;
+      heard_.status(d);
     }
-    cv_.notify_all();
   }
   void on_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
     node::PoseOut p;
     p.stamp = stamp_of(m->header.stamp);
     p.frame_id = m->header.frame_id;
     p.pose = node::to_pose(raw_pose(m->pose.pose));
-    poses_[p.stamp.ns] = p;
-    cv_.notify_all();
+    heard_.pose(p);
   }
   void on_tf(const tf2_msgs::TFMessageConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& t : m->transforms) {
       if (t.header.frame_id != "map" || t.child_frame_id != "odom") continue;
       node::TransformOut out;
@@ -177,20 +159,14 @@ class Ros1Link : public node::test::NodeLink {
       out.parent = t.header.frame_id;
       out.child = t.child_frame_id;
       out.pose = node::to_pose(raw_pose(t.transform));
-      map_odom_[out.stamp.ns - tolerance_ns_] = out;
+      heard_.map_odom(out);
     }
-    cv_.notify_all();
   }
 
   Child& node_;
-  std::int64_t tolerance_ns_;
+  node::test::HeardRecord heard_;
   ros::Publisher points_, odom_, imu_, tf_, tf_static_, initial_pose_, clock_;
   std::vector<ros::Subscriber> subs_;
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  std::map<std::int64_t, node::DiagnosticOut> statuses_;
-  std::map<std::int64_t, node::PoseOut> poses_;
-  std::map<std::int64_t, node::TransformOut> map_odom_;
 };
 
 }  // namespace tsdf_mcl::ros_node

@@ -73,10 +73,15 @@ std::optional<Pose> LastPoseFile::load(std::string* warning) const {
   return pose;
 }
 
-void LastPoseFile::keep(const Pose& pose, double time) {
+bool LastPoseFile::keep(const Pose& pose, double time) {
   const auto now = std::chrono::steady_clock::now();
-  if (last_write_ && now - *last_write_ < std::chrono::duration<double>(kMinIntervalSeconds)) return;
-  last_write_ = now;
+  if (last_write_ && now - *last_write_ < std::chrono::duration<double>(kMinIntervalSeconds)) return false;
+  keep_now(pose, time);
+  return true;
+}
+
+void LastPoseFile::keep_now(const Pose& pose, double time) {
+  last_write_ = std::chrono::steady_clock::now();
   const Eigen::Quaterniond q(pose.rotation());
   const Eigen::Vector3d t = pose.translation();
   const nlohmann::json j = {{"format", kFormat}, {"map", map_id_}, {"time", time}, {"x", t.x()},

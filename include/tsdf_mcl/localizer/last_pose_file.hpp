@@ -33,8 +33,10 @@ class LastPoseFile {
   // map or off this one (`warning` says which, in one line).
   std::optional<Pose> load(std::string* warning) const;
   // Keeps `pose` (stamped `time`, s) unless the last write was less than kMinIntervalSeconds ago (wall time); the
-  // file is replaced atomically. Throws Error naming the file where it cannot be written.
-  void keep(const Pose& pose, double time);
+  // file is replaced atomically. Returns whether it wrote. Throws Error naming the file where it cannot be written.
+  bool keep(const Pose& pose, double time);
+  // Keeps `pose` now, whenever the last write was (a localizer that stops keeps where it stopped).
+  void keep_now(const Pose& pose, double time);
 
   const std::filesystem::path& file() const { return file_; }
 
