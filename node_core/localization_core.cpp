@@ -33,18 +33,10 @@ LocalizationCore::LocalizationCore(const NodeSettings& settings, const Localizer
   LocalizerOptions start = options_;
   if (!settings_.last_pose_file.empty()) {
     last_pose_ = std::make_unique<LastPoseFile>(settings_.last_pose_file, map_);
-    std::string warning;
-    const std::optional<Pose> kept = last_pose_->load(&warning);
+    std::string note, warning;
+    if (const std::optional<Pose> kept = last_pose_->start(options_, &note, &warning)) start.initial_pose = kept;
     if (!warning.empty()) out_.log(LogLevel::kWarn, "tsdf_mcl: " + warning);
-    if (kept && !start.initial_pose) {
-      start.initial_pose = kept;
-      from_last_pose_ = kept;
-      const Eigen::Vector3d t = kept->translation();
-      char buf[200];
-      std::snprintf(buf, sizeof(buf), "tsdf_mcl: starting at the last converged pose (%.2f, %.2f, %.2f, yaw %.1f deg) ",
-                    t.x(), t.y(), t.z(), yaw_of(*kept) * 180.0 / M_PI);
-      out_.log(LogLevel::kInfo, buf + ("from " + one_line(settings_.last_pose_file)));
-    }
+    if (!note.empty()) out_.log(LogLevel::kInfo, "tsdf_mcl: " + note);
   }
   localizer_ = std::make_unique<Localizer>(map_, start);
   out_.log(LogLevel::kInfo, "tsdf_mcl: map " + one_line(settings_.map_file) + ", " + localizer_->backend_note());
@@ -58,9 +50,9 @@ LocalizationCore::LocalizationCore(const NodeSettings& settings, const Localizer
 }
 
 LocalizationCore::~LocalizationCore() {
-  if (!last_pose_ || !unkept_pose_) return;
+  if (!last_pose_) return;
   try {
-    last_pose_->keep_now(unkept_pose_->first, unkept_pose_->second);
+    last_pose_->flush();
   } catch (const Error& e) {
     out_.log(LogLevel::kWarn, std::string("tsdf_mcl: ") + e.what());
   }
@@ -98,7 +90,7 @@ void LocalizationCore::apply_requests(Stamp stamp) {
   }
   if (global) {
     localizer_->reset_global();
-    from_last_pose_.reset();
+    if (last_pose_) last_pose_->forget_start();
     ++counters_.global_searches;
   }
   if (nomotion) localizer_->request_update();
@@ -125,7 +117,7 @@ void LocalizationCore::apply_requests(Stamp stamp) {
                 t.z(), yaw_of(pose) * 180.0 / M_PI, planar ? " (z, roll, pitch from the map)" : "", stamp.seconds());
   out_.log(LogLevel::kInfo, buf);
   localizer_->reset_to(pose);
-  from_last_pose_.reset();
+  if (last_pose_) last_pose_->forget_start();
   ++counters_.initial_poses;
 }
 
@@ -272,7 +264,7 @@ void LocalizationCore::process(const CloudMsg& primary, Stamp stamp, const std::
   }
   last_stamp_ = stamp;
   if (scan_period_ > 0.0 && update_ms > 1000.0 * scan_period_) ++counters_.late;
-  follow_last_pose(*record, stamp);
+  follow_last_pose(*record);
   publish(stamp, *record, update_ms);
   if (odom_T_base) broadcast_map_to_odom(stamp, record->step.estimate.pose, *odom_T_base);
 }
@@ -288,22 +280,12 @@ void LocalizationCore::broadcast_map_to_odom(Stamp stamp, const Pose& map_T_base
   out_.send_transform(t);
 }
 
-void LocalizationCore::follow_last_pose(const ScanRecord& record, Stamp stamp) {
-  if (from_last_pose_ && record.step.updated) {
-    const std::string misfit = initial_pose_misfit(record.step, localizer_->options(), *from_last_pose_);
-    from_last_pose_.reset();
-    if (!misfit.empty()) {
-      out_.log(LogLevel::kWarn, "tsdf_mcl: the first scan does not fit at the last converged pose: " + misfit +
-                                    "; searching the whole map from the next scan");
-      localizer_->reset_global();
-      return;
-    }
-  }
-  if (!last_pose_ || record.step.state != TrackState::kConverged) return;
+void LocalizationCore::follow_last_pose(const ScanRecord& record) {
+  if (!last_pose_) return;
   try {
-    const bool kept = last_pose_->keep(record.step.estimate.pose, stamp.seconds());
-    unkept_pose_.reset();
-    if (!kept) unkept_pose_ = std::make_pair(record.step.estimate.pose, stamp.seconds());
+    if (const std::string note = last_pose_->follow(*localizer_, record); !note.empty()) {
+      out_.log(LogLevel::kWarn, "tsdf_mcl: " + note);
+    }
   } catch (const Error& e) {
     log_throttled("last_pose_file", 60.0, LogLevel::kWarn, std::string("tsdf_mcl: ") + e.what());
   }

@@ -93,7 +93,7 @@ class LocalizationCore {
   void broadcast_map_to_odom(Stamp stamp, const Pose& map_T_base, const Pose& odom_T_base);
   // After an update: a start from the last pose whose first scan did not fit there searches the whole map; a
   // converged estimate is kept in the file.
-  void follow_last_pose(const ScanRecord& record, Stamp stamp);
+  void follow_last_pose(const ScanRecord& record);
 
   // node_status.cpp: what the node publishes after a scan.
   void publish(Stamp stamp, const ScanRecord& record, double update_ms);
@@ -160,9 +160,7 @@ class LocalizationCore {
   std::optional<Stamp> last_stamp_;
   bool estimate_valid_ = false;     // the filter has processed a scan since it (re)started
   double scan_period_ = 0.0;        // s, a running estimate from the stamps
-  std::optional<Pose> from_last_pose_;  // the filter started at the last pose file's pose; its first update decides
-  // The newest converged estimate not yet in the last pose file (kept when the core stops).
-  std::optional<std::pair<Pose, double>> unkept_pose_;
+
 };
 
 }  // namespace tsdf_mcl::node

@@ -102,7 +102,7 @@ void LocalizationCore::restart_after_time_jump() {
   scan_period_ = 0.0;
   last_sensor_scan_.clear();
   estimate_valid_ = false;
-  from_last_pose_.reset();
+  if (last_pose_) last_pose_->forget_start();
 }
 
 void LocalizationCore::on_clock() {

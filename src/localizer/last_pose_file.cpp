@@ -90,6 +90,43 @@ void LastPoseFile::keep_now(const Pose& pose, double time) {
   write_file_atomically(file_, j.dump(1) + "\n", "last pose file");
 }
 
+std::optional<Pose> LastPoseFile::start(const LocalizerOptions& options, std::string* note, std::string* warning) {
+  started_at_.reset();
+  if (options.initial_pose) return std::nullopt;
+  started_at_ = load(warning);
+  if (started_at_) {
+    const Eigen::Vector3d t = started_at_->translation();
+    const Eigen::Vector3d x = started_at_->rotation().col(0);
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "starting at the last converged pose (%.2f, %.2f, %.2f, yaw %.1f deg) from ", t.x(),
+                  t.y(), t.z(), std::atan2(x.y(), x.x()) * 180.0 / M_PI);
+    *note = buf + one_line(file_.string());
+  }
+  return started_at_;
+}
+
+std::string LastPoseFile::follow(Localizer& localizer, const ScanRecord& record) {
+  if (started_at_ && record.step.updated) {
+    const std::string misfit = initial_pose_misfit(record.step, localizer.options(), *started_at_);
+    started_at_.reset();
+    if (!misfit.empty()) {
+      localizer.reset_global();
+      return "the first scan does not fit at the last converged pose: " + misfit +
+             "; searching the whole map from the next scan";
+    }
+  }
+  if (record.step.state != TrackState::kConverged) return "";
+  held_back_.reset();
+  if (!keep(record.step.estimate.pose, record.time)) held_back_ = std::make_pair(record.step.estimate.pose, record.time);
+  return "";
+}
+
+void LastPoseFile::flush() {
+  if (!held_back_) return;
+  keep_now(held_back_->first, held_back_->second);
+  held_back_.reset();
+}
+
 std::string initial_pose_misfit(const FilterStep& step, const LocalizerOptions& options, const Pose& initial) {
   char buf[300];
   const double moved = (step.estimate.pose.translation() - initial.translation()).norm();

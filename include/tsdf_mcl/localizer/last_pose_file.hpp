@@ -6,14 +6,15 @@
 // off the map or a corrupt file is one warning, and the localizer searches globally.
 //
 //   LastPoseFile last(path, map);
-//   std::string warning;
-//   if (auto pose = last.load(&warning)) options.initial_pose = pose;   // else: warning (empty if no file)
-//   ... after each converged estimate: last.keep(estimate.pose, time);   // at most once a second, atomically
-//   ... after the first update from it: initial_pose_misfit(step, options, *pose) -> search globally if not ""
+//   options.initial_pose = last.start(options, &note, &warning);  // the kept pose, unless options has one
+//   Localizer localizer(map, options);
+//   for (each scan) note(last.follow(localizer, localizer.process(...)));   // keeps converged poses, once a second
+//   last.flush();                                              // the newest converged pose, when the run ends
 #include <chrono>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "tsdf_mcl/core/pose.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
@@ -35,8 +36,20 @@ class LastPoseFile {
   // Keeps `pose` (stamped `time`, s) unless the last write was less than kMinIntervalSeconds ago (wall time); the
   // file is replaced atomically. Returns whether it wrote. Throws Error naming the file where it cannot be written.
   bool keep(const Pose& pose, double time);
-  // Keeps `pose` now, whenever the last write was (a localizer that stops keeps where it stopped).
+  // Keeps `pose` now, whenever the last write was.
   void keep_now(const Pose& pose, double time);
+
+  // The pose a localizer with `options` starts from: the kept one, unless `options` has an initial pose of its own
+  // or the file holds none that can be used. `note` says where it starts, `warning` why a file is not used.
+  std::optional<Pose> start(const LocalizerOptions& options, std::string* note, std::string* warning);
+  // After each scan of a localizer started at start()'s pose: if its first update finds the scan does not fit there
+  // (initial_pose_misfit), the localizer searches the whole map from the next scan and the returned line says so;
+  // a converged estimate is kept (keep). Throws Error where the file cannot be written.
+  std::string follow(Localizer& localizer, const ScanRecord& record);
+  // The localizer no longer starts from the kept pose (an operator's pose, a global search requested, a restart).
+  void forget_start() { started_at_.reset(); }
+  // Keeps the newest converged estimate that keep() held back (a run or node that ends keeps where it stopped).
+  void flush();
 
   const std::filesystem::path& file() const { return file_; }
 
@@ -45,6 +58,8 @@ class LastPoseFile {
   const TsdfMap& map_;
   std::string map_id_;
   std::optional<std::chrono::steady_clock::time_point> last_write_;
+  std::optional<Pose> started_at_;
+  std::optional<std::pair<Pose, double>> held_back_;
 };
 
 // Why the first filter update after starting at `initial` says the scan does not fit there, or "" when it fits: its
