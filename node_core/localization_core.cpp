@@ -135,9 +135,8 @@ std::optional<Pose> LocalizationCore::odometry_at(Stamp stamp, std::string* erro
   // Like a tf lookup, wait up to tf_timeout of wall time for odometry at the scan's stamp: on a loaded machine the
   // scan may be handled before the odometry sent just before it (another connection).
   std::unique_lock<std::mutex> lock(mutex_);
-  odometry_cv_.wait_for(lock, std::chrono::duration<double>(settings_.tf_timeout), [&] {
-    return time_jump_pending_ || (!odometry_.empty() && odometry_.back().stamp >= stamp);
-  });
+  odometry_cv_.wait_for(lock, std::chrono::duration<double>(settings_.tf_timeout),
+                        [&] { return time_jump_pending_ || (!odometry_.empty() && odometry_.back().stamp >= stamp); });
   if (odometry_.empty()) {
     *error = "no odometry on " + settings_.odom_topic + " yet (is it published?)";
     return std::nullopt;
@@ -156,8 +155,8 @@ std::optional<Pose> LocalizationCore::odometry_at(Stamp stamp, std::string* erro
   if (std::abs(behind) <= settings_.tf_timeout) return last.pose;
   char buf[200];
   std::snprintf(buf, sizeof(buf), "no odometry on %s at the scan (%.3f s): the messages span %.3f..%.3f s%s",
-                settings_.odom_topic.c_str(), stamp.seconds(), odometry_.front().stamp.seconds(),
-                last.stamp.seconds(), behind > 0 ? " (odometry stalled or late)" : " (scan older than them)");
+                settings_.odom_topic.c_str(), stamp.seconds(), odometry_.front().stamp.seconds(), last.stamp.seconds(),
+                behind > 0 ? " (odometry stalled or late)" : " (scan older than them)");
   *error = buf;
   return std::nullopt;
 }
@@ -182,9 +181,9 @@ bool LocalizationCore::add_cloud(const CloudMsg& msg, std::vector<Eigen::Vector3
   if (!base_T_cloud) {
     *error = "no transform " + settings_.base_frame_id + " -> " + frame + " (the LiDAR's mounting): " + why +
              ". Publish it latched on /tf_static (robot_state_publisher, or " +
-             out_.static_transform_command(settings_.base_frame_id, frame) + "), give it as " + out_.parameter_name("sensor_extrinsics." + frame) +
-             ": [x, y, z, roll, pitch, yaw], or check " + out_.parameter_name("base_frame_id") +
-             " and the clouds' header.frame_id; retried with every scan";
+             out_.static_transform_command(settings_.base_frame_id, frame) + "), give it as " +
+             out_.parameter_name("sensor_extrinsics." + frame) + ": [x, y, z, roll, pitch, yaw], or check " +
+             out_.parameter_name("base_frame_id") + " and the clouds' header.frame_id; retried with every scan";
     return false;
   }
   PointCloud cloud = decode_pointcloud2(msg.layout, msg.data, msg.size, nullptr, "PointCloud2 in frame " + frame);

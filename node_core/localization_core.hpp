@@ -140,11 +140,11 @@ class LocalizationCore {
   bool global_request_ = false;
   bool nomotion_request_ = false;
   std::size_t skipped_ = 0;
-  std::size_t rejected_ = 0;          // messages rejected (bad stamp, non-finite, out of order)
-  std::string last_rejection_;        // why the last one was
-  std::optional<Stamp> newest_;       // the newest scan stamp
-  std::optional<Stamp> last_now_;     // the ROS clock at the last message
-  bool time_jump_pending_ = false;    // time went back: the filter thread restarts the filter
+  std::size_t rejected_ = 0;        // messages rejected (bad stamp, non-finite, out of order)
+  std::string last_rejection_;      // why the last one was
+  std::optional<Stamp> newest_;     // the newest scan stamp
+  std::optional<Stamp> last_now_;   // the ROS clock at the last message
+  bool time_jump_pending_ = false;  // time went back: the filter thread restarts the filter
   std::size_t time_jumps_ = 0;
   std::optional<Stamp> last_imu_time_;
   std::map<std::string, std::chrono::steady_clock::time_point> throttled_;  // log_throttled's last line per key
@@ -158,9 +158,8 @@ class LocalizationCore {
   std::string last_extrinsic_source_;  // where the last primary cloud's extrinsic came from (diagnostics)
   Counters counters_;
   std::optional<Stamp> last_stamp_;
-  bool estimate_valid_ = false;     // the filter has processed a scan since it (re)started
-  double scan_period_ = 0.0;        // s, a running estimate from the stamps
-
+  bool estimate_valid_ = false;  // the filter has processed a scan since it (re)started
+  double scan_period_ = 0.0;     // s, a running estimate from the stamps
 };
 
 }  // namespace tsdf_mcl::node

@@ -2,8 +2,9 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
+
+#include "text_format.hpp"
 
 namespace tsdf_mcl::node {
 namespace {
@@ -11,16 +12,6 @@ namespace {
 constexpr std::int64_t kMaxRos1Seconds = 4294967295;  // uint32
 // tf2's QUATERNION_NORMALIZATION_TOLERANCE, on the squared norm.
 constexpr double kQuaternionTolerance = 0.01;
-
-std::string printf_string(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string printf_string(const char* format, ...) {
-  char buf[256];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof(buf), format, args);
-  va_end(args);
-  return buf;
-}
 
 }  // namespace
 
@@ -39,19 +30,18 @@ std::string pose_problem(const RawPose& pose, bool zero_rotation_ok) {
   const Eigen::Vector3d& p = pose.position;
   const Eigen::Vector4d& q = pose.orientation;
   if (!p.allFinite() || !q.allFinite()) {
-    return printf_string("non-finite pose (%g, %g, %g; quaternion %g, %g, %g, %g)", p.x(), p.y(), p.z(), q.x(), q.y(),
-                         q.z(), q.w());
+    return format("non-finite pose (%g, %g, %g; quaternion %g, %g, %g, %g)", p.x(), p.y(), p.z(), q.x(), q.y(), q.z(),
+                  q.w());
   }
   if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
-    return printf_string("position (%g, %g, %g) m beyond %g m", p.x(), p.y(), p.z(), kMaxCoordinate);
+    return format("position (%g, %g, %g) m beyond %g m", p.x(), p.y(), p.z(), kMaxCoordinate);
   }
   const double largest = q.cwiseAbs().maxCoeff();
   if (largest == 0.0) return zero_rotation_ok ? "" : "quaternion (0, 0, 0, 0) is no rotation";
   // The norm scaled by the largest component: no overflow for components near the double range.
   const double norm = largest * (q / largest).norm();
   if (!(std::abs(norm * norm - 1.0) <= kQuaternionTolerance)) {
-    return printf_string("quaternion (%g, %g, %g, %g) is not of unit length (norm %g)", q.x(), q.y(), q.z(), q.w(),
-                         norm);
+    return format("quaternion (%g, %g, %g, %g) is not of unit length (norm %g)", q.x(), q.y(), q.z(), q.w(), norm);
   }
   return "";
 }
@@ -69,7 +59,7 @@ Pose to_pose(const RawPose& pose) {
 std::string imu_problem(const ImuMsg& imu) {
   const Eigen::Vector3d& a = imu.linear_acceleration;
   if (a.allFinite() && a.norm() < 1000.0) return "";
-  return printf_string("linear_acceleration (%g, %g, %g) is not finite or beyond 1000 m/s^2", a.x(), a.y(), a.z());
+  return format("linear_acceleration (%g, %g, %g) is not finite or beyond 1000 m/s^2", a.x(), a.y(), a.z());
 }
 
 std::string outside_map_problem(const TsdfMap& map, const Eigen::Vector3d& position) {
@@ -77,8 +67,8 @@ std::string outside_map_problem(const TsdfMap& map, const Eigen::Vector3d& posit
   const Eigen::Vector3d hi = map.world_max().cast<double>() + Eigen::Vector3d::Constant(kMapMargin);
   if ((position.array() >= lo.array()).all() && (position.array() <= hi.array()).all()) return "";
   const Eigen::Vector3f a = map.world_min(), b = map.world_max();
-  return printf_string("position (%.2f, %.2f, %.2f) m lies outside the map (x %.1f..%.1f, y %.1f..%.1f, z %.1f..%.1f m)",
-                       position.x(), position.y(), position.z(), a.x(), b.x(), a.y(), b.y(), a.z(), b.z());
+  return format("position (%.2f, %.2f, %.2f) m lies outside the map (x %.1f..%.1f, y %.1f..%.1f, z %.1f..%.1f m)",
+                position.x(), position.y(), position.z(), a.x(), b.x(), a.y(), b.y(), a.z(), b.z());
 }
 
 }  // namespace tsdf_mcl::node

@@ -65,8 +65,7 @@ bool LocalizationCore::note_time_locked(const Stamp* scan_stamp) {
   char why[160] = "";
   if (now) {
     if (last_now_ && *now < *last_now_) {
-      std::snprintf(why, sizeof(why), "the clock went back from %.3f to %.3f s", last_now_->seconds(),
-                    now->seconds());
+      std::snprintf(why, sizeof(why), "the clock went back from %.3f to %.3f s", last_now_->seconds(), now->seconds());
     }
     last_now_ = now;
   } else if (scan_stamp && newest_ && seconds_between(*scan_stamp, *newest_) > kTimeJumpSeconds) {

@@ -13,10 +13,10 @@ enum class LogLevel { kInfo, kWarn, kError };
 class NodeOutput {
  public:
   virtual ~NodeOutput() = default;
-  virtual void publish_pose(const PoseOut& pose) = 0;                // amcl_pose
-  virtual bool particles_wanted() = 0;                               // someone listens to the particle cloud
-  virtual void publish_particles(const PosesOut& particles) = 0;     // particlecloud / particle_cloud
-  virtual void publish_hypotheses(const PosesOut& hypotheses) = 0;   // ~hypotheses, best first
+  virtual void publish_pose(const PoseOut& pose) = 0;                 // amcl_pose
+  virtual bool particles_wanted() = 0;                                // someone listens to the particle cloud
+  virtual void publish_particles(const PosesOut& particles) = 0;      // particlecloud / particle_cloud
+  virtual void publish_hypotheses(const PosesOut& hypotheses) = 0;    // ~hypotheses, best first
   virtual void publish_diagnostics(const DiagnosticOut& status) = 0;  // /diagnostics
   virtual void send_transform(const TransformOut& transform) = 0;     // tf map -> odom
   virtual void publish_map_cloud(const CloudOut& cloud) = 0;          // ~map_cloud, latched

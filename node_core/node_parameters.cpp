@@ -148,15 +148,30 @@ std::string NodeParameters::shown(const std::string& name) const {
   return out;
 }
 
+std::string default_last_pose_file(const std::string& node_name) {
+  std::string home;
+  if (const char* ros_home = std::getenv("ROS_HOME")) {
+    home = ros_home;
+  } else if (const char* user_home = std::getenv("HOME")) {
+    home = std::string(user_home) + "/.ros";
+  } else {
+    return "";
+  }
+  std::string name = node_name.substr(node_name.rfind('/', 0) == 0 ? 1 : 0);
+  std::replace(name.begin(), name.end(), '/', '_');
+  return home + "/" + name + "_last_pose.json";
+}
+
 const std::vector<std::string>& node_parameter_names() {
-  static const std::vector<std::string> names = {
-      "map_file",     "global_frame_id",     "odom_frame_id", "base_frame_id", "point_topics",
-      "odom_topic",   "imu_topic",           "transform_tolerance", "tf_timeout", "merge_window",
-      "tf_broadcast", "max_published_particles", "map_cloud_points", "last_pose_file"};
+  static const std::vector<std::string> names = {"map_file",         "global_frame_id",     "odom_frame_id",
+                                                 "base_frame_id",    "point_topics",        "odom_topic",
+                                                 "imu_topic",        "transform_tolerance", "tf_timeout",
+                                                 "merge_window",     "tf_broadcast",        "max_published_particles",
+                                                 "map_cloud_points", "last_pose_file"};
   return names;
 }
 
-NodeSettings settings_from(const NodeParameters& p, const std::string& default_last_pose_file) {
+NodeSettings settings_from(const NodeParameters& p, const std::string& fallback_last_pose_file) {
   NodeSettings s;
   s.map_file = text_param(p, "map_file", "");
   if (s.map_file.empty()) throw Error(p.shown("map_file") + " is not set (a TSDF map from tsdf-mcl build-map)");
@@ -181,7 +196,7 @@ NodeSettings settings_from(const NodeParameters& p, const std::string& default_l
       static_cast<int>(number_param(p, "max_published_particles", s.max_published_particles, 0, 1e7, true));
   s.map_cloud_points = static_cast<int>(number_param(p, "map_cloud_points", s.map_cloud_points, 0, 1e8, true));
   s.sensor_extrinsics = sensor_extrinsics_of(p);
-  s.last_pose_file = text_param(p, "last_pose_file", default_last_pose_file);
+  s.last_pose_file = text_param(p, "last_pose_file", fallback_last_pose_file);
   return s;
 }
 

@@ -22,8 +22,8 @@ struct ParameterValue {
 struct NodeParameters {
   // By dotted name: initial_pose.x, sensor_extrinsics.lidar (ROS 1's ~initial_pose/x, a ROS 2 file's nesting).
   std::map<std::string, ParameterValue> values;
-  std::string prefix;     // "~" (ROS 1) or "" (ROS 2)
-  char separator = '.';   // '/' (ROS 1) or '.' (ROS 2)
+  std::string prefix;    // "~" (ROS 1) or "" (ROS 2)
+  char separator = '.';  // '/' (ROS 1) or '.' (ROS 2)
   // `name` as the user wrote it: ~initial_pose/x, initial_pose.x.
   std::string shown(const std::string& name) const;
 };
@@ -52,8 +52,8 @@ struct NodeSettings {
 
 // The node's own parameters: map_file (required), the frames (global_frame_id not empty; base_frame_id neither
 // empty nor the global frame; odom_frame_id neither empty, nor the base frame, nor the global frame), topics, tf
-// timing, what it publishes, sensor_extrinsics, last_pose_file (`default_last_pose_file` where not given).
-NodeSettings settings_from(const NodeParameters& parameters, const std::string& default_last_pose_file);
+// timing, what it publishes, sensor_extrinsics, last_pose_file (`fallback_last_pose_file` where not given).
+NodeSettings settings_from(const NodeParameters& parameters, const std::string& fallback_last_pose_file);
 
 // The filter parameters, by the library schema's names (nav2 AMCL's where they exist, ROS 1 amcl's as aliases), with
 // the schema's validation: the node is a plain adapter over it.
@@ -63,6 +63,10 @@ LocalizerOptions localizer_options_of(const NodeParameters& parameters);
 // use_sim_time, ...) knows, with the closest known names: a misspelt parameter would otherwise be silently ignored.
 std::vector<std::string> unknown_parameter_warnings(const NodeParameters& parameters,
                                                     const std::vector<std::string>& transport_names);
+
+// Where a node keeps its last pose unless last_pose_file says: ROS_HOME (else ~/.ros), by the node's fully qualified
+// name (/robot1/tsdf_mcl: robot1_tsdf_mcl_last_pose.json); "" without either variable.
+std::string default_last_pose_file(const std::string& node_name);
 
 // The node's own parameter names (NodeSettings), for the transports' documentation checks.
 const std::vector<std::string>& node_parameter_names();

@@ -2,21 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
+
+#include "text_format.hpp"
 
 namespace tsdf_mcl::node {
 namespace {
-
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* fmt, ...) {
-  char buf[400];
-  va_list args;
-  va_start(args, fmt);
-  std::vsnprintf(buf, sizeof(buf), fmt, args);
-  va_end(args);
-  return buf;
-}
 
 double yaw_deg(const Pose& p) {
   const Eigen::Vector3d x = p.rotation().col(0);
@@ -88,9 +79,10 @@ std::string state_reason(const FilterStep& step, const LocalizerOptions& options
       return format("global search: %zu places, the best holds %.0f %% of the belief", places,
                     100.0 * best_share(step));
     case TrackState::kTracking:
-      return format("following the track: the best place holds %.0f %%, %.0f %% of the scan fits (converged needs "
-                    "%.0f %% and one place)",
-                    100.0 * best_share(step), 100.0 * e.inlier_ratio, 100.0 * needed);
+      return format(
+          "following the track: the best place holds %.0f %%, %.0f %% of the scan fits (converged needs "
+          "%.0f %% and one place)",
+          100.0 * best_share(step), 100.0 * e.inlier_ratio, 100.0 * needed);
     case TrackState::kAmbiguous:
       if (!step.look_alikes.empty()) {
         return format("%zu look-alike places not yet told from the track by the scans", step.look_alikes.size());

@@ -20,16 +20,24 @@ class RecordingOutput : public NodeOutput {
   explicit RecordingOutput(double transform_tolerance) : heard_(transform_tolerance) {}
   void publish_pose(const PoseOut& pose) override { heard_.pose(pose); }
   bool particles_wanted() override { return true; }
-  void publish_particles(const PosesOut& p) override { record([&] { particles_ = p.poses.size(); }); }
-  void publish_hypotheses(const PosesOut& h) override { record([&] { hypotheses_ = h; }); }
+  void publish_particles(const PosesOut& p) override {
+    record([&] { particles_ = p.poses.size(); });
+  }
+  void publish_hypotheses(const PosesOut& h) override {
+    record([&] { hypotheses_ = h; });
+  }
   void publish_diagnostics(const DiagnosticOut& s) override { heard_.status(s); }
   void send_transform(const TransformOut& t) override { heard_.map_odom(t); }
-  void publish_map_cloud(const CloudOut& c) override { record([&] { map_cloud_points_ = c.cloud.layout.width; }); }
+  void publish_map_cloud(const CloudOut& c) override {
+    record([&] { map_cloud_points_ = c.cloud.layout.width; });
+  }
   std::optional<Stamp> now() override {
     std::lock_guard<std::mutex> lock(mutex_);
     return now_;
   }
-  void log(LogLevel, const std::string& text) override { record([&] { logs_.push_back(text); }); }
+  void log(LogLevel, const std::string& text) override {
+    record([&] { logs_.push_back(text); });
+  }
   std::string parameter_name(const std::string& name) override { return name; }
   std::string static_transform_command(const std::string& parent, const std::string& child) override {
     return "static_transform_publisher " + parent + " " + child;

@@ -110,7 +110,8 @@ class HostileRun {
     h_ = scan();
     EXPECT_EQ(h_.status.level, kError);
     EXPECT_NE(h_.status.message.find("no transform base_link -> lidar_c"), std::string::npos) << h_.status.message;
-    const std::string parameter_c = options_.extrinsic_parameter.substr(0, options_.extrinsic_parameter.size() - 1) + "c";
+    const std::string parameter_c =
+        options_.extrinsic_parameter.substr(0, options_.extrinsic_parameter.size() - 1) + "c";
     EXPECT_NE(h_.status.message.find(parameter_c), std::string::npos) << h_.status.message;
     EXPECT_FALSE(h_.pose);
     frame_ = "lidar";
@@ -234,9 +235,9 @@ class HostileRun {
   PointCloud ring_;
   std::string frame_ = "lidar";
   double now_ = 1000.0;
-  Heard h_;                             // the node's answer to the last scan
-  std::vector<TransformMsg> statics_;   // base_link -> lidar, once step 2 has sent it
-  std::size_t rejected_ = 0;            // rejected messages the node has counted so far
+  Heard h_;                            // the node's answer to the last scan
+  std::vector<TransformMsg> statics_;  // base_link -> lidar, once step 2 has sent it
+  std::size_t rejected_ = 0;           // rejected messages the node has counted so far
 };
 
 }  // namespace

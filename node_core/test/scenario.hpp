@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 
 struct Played {
   RawStamp stamp;
-  Pose truth = Pose::Identity();     // world_T_base
+  Pose truth = Pose::Identity();  // world_T_base
   Pose odom_T_base = Pose::Identity();
   std::optional<Heard> heard;
   std::optional<TransformOut> map_odom;
@@ -37,8 +37,8 @@ std::vector<Played> play(NodeLink& link, const Dataset& data, const PlayOptions&
 
 struct Outcome {
   std::size_t scans = 0, answered = 0, converged = 0, false_claims = 0;
-  std::optional<std::size_t> first_converged;  // position in the play
-  double rmse_m = 0.0;                         // converged scans' amcl_pose against the truth
+  std::optional<std::size_t> first_converged;           // position in the play
+  double rmse_m = 0.0;                                  // converged scans' amcl_pose against the truth
   double max_tf_error_m = 0.0, max_tf_error_deg = 0.0;  // map -> odom ∘ odom -> base against the truth
   std::size_t tf_checked = 0;
   std::string first_state, last_state;

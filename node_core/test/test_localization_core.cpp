@@ -137,8 +137,9 @@ TEST_F(LocalizationCoreRun, RefusesOffMapAndNonUnitInitialPosesAndTakesRos1Stamp
   send({9.9e5, -9.9e5, 0}, {0, 0, 0, 1});
   Heard h = next(4);
   EXPECT_EQ(h.count("rejected_messages"), 1u);
-  EXPECT_NE(h.value("last_rejection").find("/initialpose: position (990000.00, -990000.00, 0.00) m lies outside the map"),
-            std::string::npos)
+  EXPECT_NE(
+      h.value("last_rejection").find("/initialpose: position (990000.00, -990000.00, 0.00) m lies outside the map"),
+      std::string::npos)
       << h.value("last_rejection");
   send(data_.pose(5).translation(), {1e200, 1e200, 0, 1e200});
   h = next(5);

@@ -2,6 +2,7 @@
 // the schema's names, the mounting parameter, unknown names warned about, each named the way its transport names it.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <functional>
 
 #include "node_parameters.hpp"
@@ -74,9 +75,23 @@ TEST(NodeParameters, OwnValuesAreChecked) {
             "~sensor_extrinsics/lidar's z must be a number in -100..100 m, got '500'");
 }
 
+TEST(NodeParameters, TheLastPoseFileIsKeptInRosHomeByTheNodesName) {
+  const char* home = std::getenv("HOME");
+  const std::string saved_home = home ? home : "";
+  setenv("ROS_HOME", "/robot/home", 1);
+  EXPECT_EQ(default_last_pose_file("/tsdf_mcl"), "/robot/home/tsdf_mcl_last_pose.json");
+  EXPECT_EQ(default_last_pose_file("/robot1/localizer"), "/robot/home/robot1_localizer_last_pose.json");
+  unsetenv("ROS_HOME");
+  setenv("HOME", "/home/robot", 1);
+  EXPECT_EQ(default_last_pose_file("/tsdf_mcl"), "/home/robot/.ros/tsdf_mcl_last_pose.json");
+  setenv("HOME", saved_home.c_str(), 1);
+}
+
 TEST(NodeParameters, FilterParametersGoThroughTheSchema) {
   EXPECT_EQ(localizer_options_of(ros1({{"max_beams", {Type::kInteger, "64"}}})).preprocessing.max_beams, 64u);
-  EXPECT_EQ(error_of([] { localizer_options_of(ros1({{"pf_z", {Type::kString, "abc"}}})); }),
+  EXPECT_EQ(error_of([] {
+              localizer_options_of(ros1({{"pf_z", {Type::kString, "abc"}}}));
+            }),
             "parameter ~pf_z expects a number, got 'abc'");
   NodeParameters ros2 = ros1({{"pf_z", {Type::kString, "abc"}}});
   ros2.prefix = "";

@@ -61,11 +61,13 @@ TEST(StatusContent, EachStateSaysWhy) {
   EXPECT_EQ(state_reason(step, options), "the map covers 25 % of the scan here: odometry carries the pose");
   step.state = TrackState::kLost;
   step.estimate.inlier_ratio = 0.2;
-  EXPECT_EQ(state_reason(step, options), "20 % of the scan fits the map at the track (converged needs 50 %): searching "
-                                         "the map again");
+  EXPECT_EQ(state_reason(step, options),
+            "20 % of the scan fits the map at the track (converged needs 50 %): searching "
+            "the map again");
   step.state = TrackState::kTracking;
-  EXPECT_EQ(state_reason(step, options), "following the track: the best place holds 55 %, 20 % of the scan fits "
-                                         "(converged needs 50 % and one place)");
+  EXPECT_EQ(state_reason(step, options),
+            "following the track: the best place holds 55 %, 20 % of the scan fits "
+            "(converged needs 50 % and one place)");
   EXPECT_EQ(hypotheses_text(step.estimate.hypotheses),
             "55 % at (0.00, 0.00, 0.00, yaw 0 deg); 45 % at (10.00, 0.00, 0.00, yaw 180 deg)");
 }

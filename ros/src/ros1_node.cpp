@@ -6,7 +6,6 @@
 #include <boost/function.hpp>
 
 #include <algorithm>
-#include <cstdlib>
 #include <sstream>
 
 #include "ros_conversions.hpp"
@@ -56,21 +55,6 @@ void flatten(const XmlRpc::XmlRpcValue& v, const std::string& name, node::NodePa
   out.values[name] = scalar_value(v);
 }
 
-// Where the last converged pose is kept unless ~last_pose_file says: ROS_HOME (~/.ros), by the node's name.
-std::string default_last_pose_file() {
-  std::string home;
-  if (const char* ros_home = std::getenv("ROS_HOME")) {
-    home = ros_home;
-  } else if (const char* user_home = std::getenv("HOME")) {
-    home = std::string(user_home) + "/.ros";
-  } else {
-    return "";
-  }
-  std::string name = ros::this_node::getName().substr(1);
-  std::replace(name.begin(), name.end(), '/', '_');
-  return home + "/" + name + "_last_pose.json";
-}
-
 }  // namespace
 
 node::NodeParameters private_parameters(const ros::NodeHandle& pnh) {
@@ -84,7 +68,8 @@ node::NodeParameters private_parameters(const ros::NodeHandle& pnh) {
 
 Ros1Node::Ros1Node(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), parameters_(private_parameters(pnh_)) {
-  const node::NodeSettings settings = node::settings_from(parameters_, default_last_pose_file());
+  const node::NodeSettings settings =
+      node::settings_from(parameters_, node::default_last_pose_file(ros::this_node::getName()));
   const LocalizerOptions options = node::localizer_options_of(parameters_);
   for (const std::string& w : node::unknown_parameter_warnings(parameters_, {})) {
     ROS_WARN("tsdf_mcl: %s (see tsdf-mcl localize --help and docs/ros.md)", w.c_str());
@@ -124,12 +109,14 @@ void Ros1Node::subscribe() {
 
   for (std::size_t i = 0; i < s.point_topics.size(); ++i) {
     subscribers_.push_back(nh_.subscribe<sensor_msgs::PointCloud2>(
-        s.point_topics[i], 2, [this, i](const sensor_msgs::PointCloud2ConstPtr& m) { core_->on_cloud(i, cloud_of(m)); }));
+        s.point_topics[i], 2,
+        [this, i](const sensor_msgs::PointCloud2ConstPtr& m) { core_->on_cloud(i, cloud_of(m)); }));
   }
   if (!s.odom_topic.empty()) {
-    subscribers_.push_back(nh_.subscribe<nav_msgs::Odometry>(s.odom_topic, 100, [this](const nav_msgs::OdometryConstPtr& m) {
-      core_->on_odometry({header_of(m->header), raw_pose(m->pose.pose)});
-    }));
+    subscribers_.push_back(
+        nh_.subscribe<nav_msgs::Odometry>(s.odom_topic, 100, [this](const nav_msgs::OdometryConstPtr& m) {
+          core_->on_odometry({header_of(m->header), raw_pose(m->pose.pose)});
+        }));
   }
   if (!s.imu_topic.empty()) {
     subscribers_.push_back(nh_.subscribe<sensor_msgs::Imu>(s.imu_topic, 400, [this](const sensor_msgs::ImuConstPtr& m) {
@@ -170,9 +157,7 @@ bool Ros1Node::particles_wanted() { return particles_pub_.getNumSubscribers() > 
 
 void Ros1Node::publish_particles(const node::PosesOut& particles) { particles_pub_.publish(pose_array(particles)); }
 
-void Ros1Node::publish_hypotheses(const node::PosesOut& hypotheses) {
-  hypotheses_pub_.publish(pose_array(hypotheses));
-}
+void Ros1Node::publish_hypotheses(const node::PosesOut& hypotheses) { hypotheses_pub_.publish(pose_array(hypotheses)); }
 
 void Ros1Node::publish_diagnostics(const node::DiagnosticOut& status) {
   diagnostic_msgs::DiagnosticStatus s;

@@ -32,7 +32,8 @@ node::CloudMsg cloud_of(const sensor_msgs::PointCloud2ConstPtr& msg) {
   c.layout.point_step = msg->point_step;
   c.layout.row_step = msg->row_step;
   c.layout.is_dense = msg->is_dense != 0;
-  for (const sensor_msgs::PointField& f : msg->fields) c.layout.fields.push_back({f.name, f.offset, f.datatype, f.count});
+  for (const sensor_msgs::PointField& f : msg->fields)
+    c.layout.fields.push_back({f.name, f.offset, f.datatype, f.count});
   c.data = msg->data.data();
   c.size = msg->data.size();
   // roscpp's boost pointer, held by the deleter of the core's std pointer.

@@ -127,9 +127,7 @@ class Ros1Link : public node::test::NodeLink {
   bool alive() override { return node_.running(); }
 
  private:
-  static ros::Time stamp(const node::RawStamp& t) {
-    return ros::Time(static_cast<std::uint32_t>(t.sec), t.nanosec);
-  }
+  static ros::Time stamp(const node::RawStamp& t) { return ros::Time(static_cast<std::uint32_t>(t.sec), t.nanosec); }
   static node::Stamp stamp_of(const ros::Time& t) { return node::to_stamp(raw_stamp(t)); }
 
   void on_status(const diagnostic_msgs::DiagnosticArrayConstPtr& m) {

@@ -355,8 +355,9 @@ class BagSession {
   tf2_ros::TransformListener tf_listener_;
   ros::Publisher initial_pose_;
   ros::AsyncSpinner spinner_;
-  std::vector<std::string> node_args_{TSDF_MCL_NODE, "__name:=tsdf_mcl", "_map_file:=" + (dir_ / "office.tsdf").string(),
-                                      "_point_topics:=/points", "_seed:=1"};
+  std::vector<std::string> node_args_{TSDF_MCL_NODE, "__name:=tsdf_mcl",
+                                      "_map_file:=" + (dir_ / "office.tsdf").string(), "_point_topics:=/points",
+                                      "_seed:=1"};
   std::optional<Child> node_;  // started once the spinner runs
   std::vector<std::string> play_;
 };

@@ -83,8 +83,8 @@ TEST(RosNode, SurvivesHostileMessagesAndRefusesBadStarts) {
   ros::NodeHandle nh;
   ros::AsyncSpinner spinner(2);
   spinner.start();
-  Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", map, "_point_topics:=/points", "_odom_topic:=/odom", "_imu_topic:=/imu",
-              "_backend:=cpu", "_particles:=3000", "_seed:=1", "_last_pose_file:=",
+  Child node({TSDF_MCL_NODE, "__name:=tsdf_mcl", map, "_point_topics:=/points", "_odom_topic:=/odom",
+              "_imu_topic:=/imu", "_backend:=cpu", "_particles:=3000", "_seed:=1", "_last_pose_file:=",
               // The mounting of a second LiDAR frame that no tf knows (as roscpp passes it: text).
               "_sensor_extrinsics/lidar_b:=[0, 0, 0.5, 0, 0, 90deg]"},
              dir / "node.log");

@@ -25,8 +25,8 @@ Sequence sequence_over(std::vector<Item>& items) {
 node::RawStamp raw_stamp(const builtin_interfaces_msg_dds__Time_& t) { return {t.sec, t.nanosec}; }
 
 builtin_interfaces_msg_dds__Time_ ros2_time(node::Stamp t) {
-  constexpr std::int64_t kMax = static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max()) * 1000000000 +
-                                999999999;
+  constexpr std::int64_t kMax =
+      static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max()) * 1000000000 + 999999999;
   const std::int64_t ns = std::clamp<std::int64_t>(t.ns, 0, kMax);
   return {static_cast<std::int32_t>(ns / 1000000000), static_cast<std::uint32_t>(ns % 1000000000)};
 }

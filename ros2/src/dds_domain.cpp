@@ -68,9 +68,10 @@ DomainConfig domain_from_environment() {
     c.described += ", localhost only";
   } else if (range == "OFF") {
     // As rmw_cyclonedds_cpp: a domain tag of this process's own, which no other participant shares.
-    xml = "<General><AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>none"
-          "</ParticipantIndex><Tag>ros_discovery_off_" +
-          std::to_string(getpid()) + "</Tag></Discovery>";
+    xml =
+        "<General><AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>none"
+        "</ParticipantIndex><Tag>ros_discovery_off_" +
+        std::to_string(getpid()) + "</Tag></Discovery>";
     c.described += ", discovery off";
   } else if (range == "SUBNET") {
     if (const std::string peers = peers_xml(env("ROS_STATIC_PEERS"), false); !peers.empty()) {
@@ -90,8 +91,7 @@ Participant::Participant(const DomainConfig& config) {
   if (!config.xml.empty()) {
     domain_ = dds_create_domain(config.id, config.xml.c_str());
     if (domain_ < 0) {
-      throw Error("cannot create DDS " + config.described + ": " + dds_strretcode(domain_) +
-                  " (check CYCLONEDDS_URI)");
+      throw Error("cannot create DDS " + config.described + ": " + dds_strretcode(domain_) + " (check CYCLONEDDS_URI)");
     }
   }
   dds_qos_t* qos = dds_create_qos();

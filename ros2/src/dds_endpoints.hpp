@@ -22,7 +22,7 @@ struct Qos {
   std::string user_data;  // "serviceid=...;" for a service's endpoints
 };
 // ROS 2's named profiles as nav2 and tf2_ros use them.
-inline Qos sensor_data_qos() { return {false, false, 5, ""}; }       // rclcpp::SensorDataQoS
+inline Qos sensor_data_qos() { return {false, false, 5, ""}; }                // rclcpp::SensorDataQoS
 inline Qos reliable_qos(int depth = 10) { return {true, false, depth, ""}; }  // rclcpp::QoS(depth)
 inline Qos latched_qos(int depth = 1) { return {true, true, depth, ""}; }     // .transient_local()
 

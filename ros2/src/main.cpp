@@ -22,7 +22,8 @@ const char* const kHelp =
     "                     [-p NAME:=VALUE ...]\n"
     "A ROS 2 node over DDS (Cyclone DDS, rmw_cyclonedds_cpp's conventions; no ROS 2 installation needed):\n"
     "localizes a LiDAR in a TSDF map from tsdf-mcl build-map and publishes amcl_pose, particle_cloud, tf map -> odom\n"
-    "and /diagnostics as nav2 AMCL does. Parameters as `tsdf-mcl localize --help` names them, plus map_file (required),\n"
+    "and /diagnostics as nav2 AMCL does. Parameters as `tsdf-mcl localize --help` names them, plus map_file "
+    "(required),\n"
     "the frames, point_topics, odom_topic, imu_topic, last_pose_file, use_sim_time and cloud_reliability; a params\n"
     "file holds them under `tsdf_mcl: ros__parameters:`. The domain comes from ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY or\n"
     "ROS_AUTOMATIC_DISCOVERY_RANGE and CYCLONEDDS_URI. See docs/ros2.md.\n";

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 
 #include "dds_conversions.hpp"
 #include "std_msgs.h"
@@ -13,21 +12,6 @@ namespace tsdf_mcl::ros2_node {
 namespace {
 
 const std::vector<std::string> kOwnParameters = {"use_sim_time", "cloud_reliability"};
-
-// Where the last converged pose is kept unless last_pose_file says: ROS_HOME (~/.ros), by the node's full name.
-std::string default_last_pose_file(const NodeName& node) {
-  std::string home;
-  if (const char* ros_home = std::getenv("ROS_HOME")) {
-    home = ros_home;
-  } else if (const char* user_home = std::getenv("HOME")) {
-    home = std::string(user_home) + "/.ros";
-  } else {
-    return "";
-  }
-  std::string name = node.fully_qualified().substr(1);
-  for (char& c : name) c = c == '/' ? '_' : c;
-  return home + "/" + name + "_last_pose.json";
-}
 
 node::NodeParameters with_ros2_naming(node::NodeParameters p) {
   p.prefix = "";
@@ -73,7 +57,8 @@ Ros2Node::Ros2Node(const RosArguments& arguments, const DomainConfig& domain)
       map_cloud_(participant_.handle(), sensor_msgs_msg_dds__PointCloud2__desc, topic("~/map_cloud"), latched_qos(1)) {
   arguments_.parameters = with_ros2_naming(arguments_.parameters);
   const node::NodeParameters& p = arguments_.parameters;
-  const node::NodeSettings settings = node::settings_from(p, default_last_pose_file(arguments_.node));
+  const node::NodeSettings settings =
+      node::settings_from(p, node::default_last_pose_file(arguments_.node.fully_qualified()));
   const LocalizerOptions options = node::localizer_options_of(p);
   for (const std::string& w : node::unknown_parameter_warnings(p, kOwnParameters)) {
     log(node::LogLevel::kWarn, "tsdf_mcl: " + w + " (see tsdf-mcl localize --help and docs/ros2.md)");
@@ -133,10 +118,9 @@ void Ros2Node::subscribe() {
                        });
   }
   if (!s.imu_topic.empty()) {
-    message_loop_->add(reader(sensor_msgs_msg_dds__Imu__desc, s.imu_topic, sensor_data_qos()),
-                       [&core](const Sample& m) {
-                         core.on_imu(imu_of(*static_cast<const sensor_msgs_msg_dds__Imu_*>(m.get())));
-                       });
+    message_loop_->add(
+        reader(sensor_msgs_msg_dds__Imu__desc, s.imu_topic, sensor_data_qos()),
+        [&core](const Sample& m) { core.on_imu(imu_of(*static_cast<const sensor_msgs_msg_dds__Imu_*>(m.get()))); });
   }
   message_loop_->add(reader(geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, "initialpose", reliable_qos(5)),
                      [&core](const Sample& m) {
@@ -199,8 +183,8 @@ void Ros2Node::log(node::LogLevel level, const std::string& text) {
   const double wall = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   std::string message = text.rfind("tsdf_mcl: ", 0) == 0 ? text.substr(10) : text;
   std::lock_guard<std::mutex> lock(log_mutex_);
-  std::fprintf(stderr, "[%s] [%.9f] [%s]: %s\n", names[static_cast<int>(level)], wall,
-               arguments_.node.name.c_str(), one_line(message).c_str());
+  std::fprintf(stderr, "[%s] [%.9f] [%s]: %s\n", names[static_cast<int>(level)], wall, arguments_.node.name.c_str(),
+               one_line(message).c_str());
   std::fflush(stderr);
 }
 
@@ -208,7 +192,8 @@ std::string Ros2Node::parameter_name(const std::string& name) { return name; }
 
 std::string Ros2Node::static_transform_command(const std::string& parent, const std::string& child) {
   return "ros2 run tf2_ros static_transform_publisher --x X --y Y --z Z --yaw YAW --pitch PITCH --roll ROLL "
-         "--frame-id " + parent + " --child-frame-id " + child;
+         "--frame-id " +
+         parent + " --child-frame-id " + child;
 }
 
 }  // namespace tsdf_mcl::ros2_node

@@ -114,8 +114,13 @@ ParameterValue typed_value(const std::string& raw) {
   errno = 0;
   std::strtoll(text.c_str(), &end, 10);
   if (*end == '\0' && errno == 0) return {ParameterValue::Type::kInteger, text};
-  for (const auto& [yaml, c] : {std::pair<const char*, const char*>{".nan", "nan"}, {".NaN", "nan"}, {".inf", "inf"},
-                                {"+.inf", "inf"}, {"-.inf", "-inf"}, {".Inf", "inf"}, {"-.Inf", "-inf"}}) {
+  for (const auto& [yaml, c] : {std::pair<const char*, const char*>{".nan", "nan"},
+                                {".NaN", "nan"},
+                                {".inf", "inf"},
+                                {"+.inf", "inf"},
+                                {"-.inf", "-inf"},
+                                {".Inf", "inf"},
+                                {"-.Inf", "-inf"}}) {
     if (text == yaml) return {ParameterValue::Type::kDouble, c};
   }
   std::strtod(text.c_str(), &end);

@@ -225,9 +225,9 @@ bool DdsLink::call_service(const std::string& name, std::chrono::seconds timeout
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   bool answered = false;
   while (!answered && std::chrono::steady_clock::now() < deadline) {
-    dds_waitset_wait(waitset, nullptr, 0,
-                     std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - std::chrono::steady_clock::now())
-                         .count());
+    dds_waitset_wait(
+        waitset, nullptr, 0,
+        std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - std::chrono::steady_clock::now()).count());
     while (const Sample s = replies.take()) {
       const auto& reply = *static_cast<const std_srvs_srv_dds__Empty_Response_*>(s.get());
       answered = answered || (reply.client_guid == client && reply.sequence_number == sequence);

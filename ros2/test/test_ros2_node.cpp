@@ -20,8 +20,8 @@ namespace tsdf_mcl::ros2_node::test {
 namespace {
 
 using node::test::Heard;
-using node::test::PlayOptions;
 using node::test::Played;
+using node::test::PlayOptions;
 using namespace std::chrono_literals;
 
 // Plays the last scan of the run again and again, 0.1 s apart (a robot standing still), until `done` holds for the
@@ -47,11 +47,11 @@ TEST(Ros2Node, LocalizesASimulatedRunAndFollowsItsRequests) {
   node::test::simulate_small_office(dir, 3, 8.0);
   if (HasFatalFailure()) return;
   const Dataset data = Dataset::open(dir / "run");
-  const fs::path params = params_file(dir,
-                                      {"map_file: " + (dir / "map.tsdf").string(), "cloud_reliability: reliable",
-                                       "backend: cpu", "seed: 1", "tf_timeout: 10.0",
-                                       "last_pose_file: " + (dir / "last_pose.json").string()},
-                                      /*use_sim_time=*/true);
+  const fs::path params =
+      params_file(dir,
+                  {"map_file: " + (dir / "map.tsdf").string(), "cloud_reliability: reliable", "backend: cpu", "seed: 1",
+                   "tf_timeout: 10.0", "last_pose_file: " + (dir / "last_pose.json").string()},
+                  /*use_sim_time=*/true);
   const std::vector<std::string> ros_args = {"--params-file", params.string(), "-p", "map_cloud_points:=1000"};
   std::vector<std::size_t> scans;
   for (std::size_t i = 0; i < data.size(); i += 2) scans.push_back(i);
@@ -143,7 +143,8 @@ void expect_bad_starts_refused(const fs::path& dir, const std::string& map) {
       {{"-p", map, "-p", "global_frame_id:=''"}, "error: global_frame_id is empty: name a tf frame"},
       {{"-p", map, "-p", "base_frame_id:=map"}, "error: base_frame_id and global_frame_id are both 'map'"},
       {{"-p", map, "-p", "odom_frame_id:=base_link"}, "error: odom_frame_id and base_frame_id are both 'base_link'"},
-      {{"-p", map, "-p", "transform_tolerance:=abc"}, "error: transform_tolerance must be a number in 0..60, got 'abc'"},
+      {{"-p", map, "-p", "transform_tolerance:=abc"},
+       "error: transform_tolerance must be a number in 0..60, got 'abc'"},
       {{"-p", map, "-p", "pf_z:=abc"}, "error: parameter pf_z expects a number, got 'abc'"},
       {{"-p", map, "-p", "cloud_reliability:=sometimes"}, "error: cloud_reliability must be best_effort or reliable"},
       {{"-p", map, "-p", "point_topics:=[bad//name]"}, "error: the name 'bad//name'"},
@@ -169,9 +170,16 @@ TEST(Ros2Node, SurvivesHostileMessagesAndRefusesBadStarts) {
   const std::string map = "map_file:=" + (dir / "map.tsdf").string();
   expect_bad_starts_refused(dir, map);
 
-  RunningNode node({"-p", map, "-p", "point_topics:=[/points]", "-p", "odom_topic:=/odom", "-p", "imu_topic:=/imu",
-                    "-p", "backend:=cpu", "-p", "particles:=3000", "-p", "seed:=1", "-p", "last_pose_file:=''", "-p",
-                    "cloud_reliability:=reliable", "-p", "sensor_extrinsics.lidar_b:=[0, 0, 0.5, 0, 0, 90deg]"},
+  RunningNode node({"-p", map,
+                    "-p", "point_topics:=[/points]",
+                    "-p", "odom_topic:=/odom",
+                    "-p", "imu_topic:=/imu",
+                    "-p", "backend:=cpu",
+                    "-p", "particles:=3000",
+                    "-p", "seed:=1",
+                    "-p", "last_pose_file:=''",
+                    "-p", "cloud_reliability:=reliable",
+                    "-p", "sensor_extrinsics.lidar_b:=[0, 0, 0.5, 0, 0, 90deg]"},
                    dir / "node.log");
   ASSERT_TRUE(node.up);
   node::test::run_hostile_scenario(node.link, {"sensor_extrinsics.lidar_b", "/odom", /*ros1_time=*/false});
@@ -180,15 +188,21 @@ TEST(Ros2Node, SurvivesHostileMessagesAndRefusesBadStarts) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
-// The QoS a ROS 2 user's publishers bring: sensor data (best effort) and reliable clouds both match the node's
-// default (best effort) subscription; a transient-local /tf_static publisher matches, as tf2_ros's does.
-TEST(Ros2Node, MatchesTheQosOfRos2Publishers) {
+// The shipped params file starts the node without a warning; the QoS a ROS 2 user's publishers bring match it:
+// sensor data (best effort) clouds the node's default (best effort) subscription, a transient-local /tf_static
+// publisher as tf2_ros's static broadcaster is, a late transient-local amcl_pose subscriber.
+TEST(Ros2Node, TakesTheShippedParamsAndMatchesTheQosOfRos2Publishers) {
   DomainClaim domain;
   const fs::path dir = test_folder("qos");
   node::test::simulate_small_office(dir, 2, 2.0);
   if (HasFatalFailure()) return;
-  RunningNode node({"-p", "map_file:=" + (dir / "map.tsdf").string(), "-p", "last_pose_file:=''"}, dir / "node.log");
+  RunningNode node({"--params-file", TSDF_MCL_ROS2_PARAMS, "-p", "map_file:=" + (dir / "map.tsdf").string(), "-p",
+                    "last_pose_file:=''"},
+                   dir / "node.log");
   ASSERT_TRUE(node.up);
+  std::ifstream in(dir / "node.log");
+  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(log.find("WARN"), std::string::npos) << log;
   const dds_entity_t pp = node.link.participant();
   const Writer best_effort(pp, sensor_msgs_msg_dds__PointCloud2__desc, "rt/points", sensor_data_qos());
   EXPECT_TRUE(wait_for_matched(pp, best_effort.handle(), 1, 60s));

@@ -15,9 +15,9 @@ TEST(Ros2RealData, LocalizesTheOddBalmScansOverDds) {
   if (!fs::exists(data_dir / "times.txt")) GTEST_SKIP() << "shared data " << data_dir << " not present";
   DomainClaim domain;
   const fs::path dir = test_folder("balm");
-  ASSERT_TRUE(node::test::run_cli("build-map --dataset '" + data_dir.string() + "' --stride 2 -o '" +
-                                      (dir / "even.tsdf").string() + "'",
-                                  dir / "cli.log"));
+  ASSERT_TRUE(node::test::run_cli(
+      "build-map --dataset '" + data_dir.string() + "' --stride 2 -o '" + (dir / "even.tsdf").string() + "'",
+      dir / "cli.log"));
   const Dataset data = Dataset::open(data_dir);
   const fs::path params = params_file(dir,
                                       {"map_file: " + (dir / "even.tsdf").string(), "cloud_reliability: reliable",

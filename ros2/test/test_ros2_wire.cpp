@@ -64,7 +64,8 @@ Bytes diagnostic_array(const diagnostic_msgs_msg_dds__DiagnosticArray_& m) {
   for (std::uint32_t i = 0; i < m.status._length; ++i) {
     const diagnostic_msgs_msg_dds__DiagnosticStatus_& s = m.status._buffer[i];
     c.u8(s.level).string(s.name).string(s.message).string(s.hardware_id).length(s.values._length);
-    for (std::uint32_t k = 0; k < s.values._length; ++k) c.string(s.values._buffer[k].key).string(s.values._buffer[k].value);
+    for (std::uint32_t k = 0; k < s.values._length; ++k)
+      c.string(s.values._buffer[k].key).string(s.values._buffer[k].value);
   }
   return c.message();
 }
@@ -154,7 +155,8 @@ TEST(Ros2Wire, MessagesTheNodeReadsAreEncodedAsTheMsgLayoutsSay) {
   const dds_entity_t pp = participant.handle();
 
   std::string frame = "base_link", child = "lidar";
-  geometry_msgs_msg_dds__TransformStamped_ t{{{1700000000, 123456789}, frame.data()}, child.data(),
+  geometry_msgs_msg_dds__TransformStamped_ t{{{1700000000, 123456789}, frame.data()},
+                                             child.data(),
                                              {{0.1, -0.2, 0.5}, {0.0, 0.0, 0.38268343236, 0.92387953251}}};
   tf2_msgs_msg_dds__TFMessage_ tf{};
   tf.transforms = {1, 1, &t, false};
@@ -269,7 +271,8 @@ TEST(Ros2Wire, TheNodesMessagesAndEndpointsAreRos2s) {
   for (const auto& [reader, encode] : std::vector<std::pair<const Reader*, std::function<Bytes(const void*)>>>{
            {&pose,
             [](const void* m) {
-              return pose_with_covariance_stamped(*static_cast<const geometry_msgs_msg_dds__PoseWithCovarianceStamped_*>(m));
+              return pose_with_covariance_stamped(
+                  *static_cast<const geometry_msgs_msg_dds__PoseWithCovarianceStamped_*>(m));
             }},
            {&status,
             [](const void* m) {

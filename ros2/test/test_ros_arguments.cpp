@@ -32,16 +32,18 @@ TEST(RosNames, ResolvedAsRclDoes) {
   EXPECT_EQ(root.resolve("points"), "/points");
   EXPECT_EQ(root.resolve("/tf"), "/tf");
   EXPECT_EQ(root.resolve("~/hypotheses"), "/tsdf_mcl/hypotheses");
-  const NameResolver robot({"localizer", "/robot1"}, {{"", "points", "/os_cloud_node/points"}, {"other", "odom", "/x"}});
+  const NameResolver robot({"localizer", "/robot1"},
+                           {{"", "points", "/os_cloud_node/points"}, {"other", "odom", "/x"}});
   EXPECT_EQ(robot.resolve("amcl_pose"), "/robot1/amcl_pose");
   EXPECT_EQ(robot.resolve("~/hypotheses"), "/robot1/localizer/hypotheses");
   EXPECT_EQ(robot.resolve("/diagnostics"), "/diagnostics");
   EXPECT_EQ(robot.resolve("points"), "/os_cloud_node/points");  // remapped
-  EXPECT_EQ(robot.resolve("odom"), "/robot1/odom");               // a rule for another node
+  EXPECT_EQ(robot.resolve("odom"), "/robot1/odom");             // a rule for another node
   EXPECT_EQ(dds_topic("/robot1/amcl_pose"), "rt/robot1/amcl_pose");
   EXPECT_EQ(dds_request_topic("/reinitialize_global_localization"), "rq/reinitialize_global_localizationRequest");
   EXPECT_EQ(dds_reply_topic("/reinitialize_global_localization"), "rr/reinitialize_global_localizationReply");
-  EXPECT_NE(error_of([&] { root.resolve("bad//name"); }).find("the name 'bad//name' has the part ''"), std::string::npos);
+  EXPECT_NE(error_of([&] { root.resolve("bad//name"); }).find("the name 'bad//name' has the part ''"),
+            std::string::npos);
   EXPECT_NE(topic_name_problem("2d_points"), "");
   EXPECT_NE(topic_name_problem("points/"), "");
   EXPECT_EQ(topic_name_problem("~"), "");
@@ -55,9 +57,9 @@ TEST(RosArguments, RemapsParametersAndParameterFiles) {
                          "robot1:\n  localizer:\n    ros__parameters:\n      sigma_hit: 0.2\n"
                          "      initial_pose:\n        x: 1.5\n      point_topics: [/a, /b]\n"
                          "other_node:\n  ros__parameters:\n    sigma_hit: 9.0\n";
-  const RosArguments a = parse_ros_arguments({"--ros-args", "-r", "__ns:=/robot1", "-r", "__node:=localizer",
-                                              "--params-file", file.string(), "-p", "max_beams:=64", "-r",
-                                              "points:=/lidar", "--log-level", "debug", "--"});
+  const RosArguments a =
+      parse_ros_arguments({"--ros-args", "-r", "__ns:=/robot1", "-r", "__node:=localizer", "--params-file",
+                           file.string(), "-p", "max_beams:=64", "-r", "points:=/lidar", "--log-level", "debug", "--"});
   EXPECT_EQ(a.node.fully_qualified(), "/robot1/localizer");
   ASSERT_EQ(a.remaps.size(), 1u);
   EXPECT_EQ(a.remaps[0].to, "/lidar");
@@ -79,12 +81,16 @@ TEST(RosArguments, RemapsParametersAndParameterFiles) {
   EXPECT_TRUE(node_pattern_matches("tsdf_mcl", "/tsdf_mcl"));
   EXPECT_FALSE(node_pattern_matches("tsdf_mcl", "/robot1/tsdf_mcl"));
 
-  EXPECT_EQ(error_of([] { parse_ros_arguments({"--ros-args", "-p", "novalue"}); }),
+  EXPECT_EQ(error_of([] {
+              parse_ros_arguments({"--ros-args", "-p", "novalue"});
+            }),
             "-p expects name:=value, got 'novalue'");
   EXPECT_EQ(error_of([] { parse_ros_arguments({"--ros-args", "-r"}); }), "-r needs a value");
   EXPECT_EQ(error_of([] { parse_ros_arguments({"stray"}); }),
             "unknown argument 'stray' (ROS arguments follow --ros-args; --help)");
-  EXPECT_NE(error_of([] { parse_ros_arguments({"--ros-args", "-r", "__node:=a/b"}); }).find("not a node name"),
+  EXPECT_NE(error_of([] {
+              parse_ros_arguments({"--ros-args", "-r", "__node:=a/b"});
+            }).find("not a node name"),
             std::string::npos);
 }
 
@@ -102,8 +108,8 @@ TEST(RosArguments, ValuesAreTypedAsYamlReadsThem) {
 
 TEST(DdsDomain, FromTheEnvironmentAsRmwCycloneddsReadsIt) {
   const auto with = [](const std::vector<std::pair<const char*, const char*>>& env) {
-    for (const char* name : {"ROS_DOMAIN_ID", "ROS_LOCALHOST_ONLY", "ROS_AUTOMATIC_DISCOVERY_RANGE",
-                             "ROS_STATIC_PEERS", "CYCLONEDDS_URI"}) {
+    for (const char* name : {"ROS_DOMAIN_ID", "ROS_LOCALHOST_ONLY", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS",
+                             "CYCLONEDDS_URI"}) {
       unsetenv(name);
     }
     for (const auto& [name, value] : env) setenv(name, value, 1);
@@ -118,7 +124,8 @@ TEST(DdsDomain, FromTheEnvironmentAsRmwCycloneddsReadsIt) {
   EXPECT_NE(c.xml.find("<NetworkInterface address=\"127.0.0.1\"/>"), std::string::npos) << c.xml;
   EXPECT_NE(c.xml.find("<Peer address=\"localhost\"/>"), std::string::npos) << c.xml;
   EXPECT_EQ(c.described, "domain 42, localhost only");
-  with({{"ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET"}, {"ROS_STATIC_PEERS", "10.0.0.2;robot.local"},
+  with({{"ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET"},
+        {"ROS_STATIC_PEERS", "10.0.0.2;robot.local"},
         {"CYCLONEDDS_URI", "file:///etc/cyclone.xml"}});
   c = domain_from_environment();
   EXPECT_EQ(c.xml,

@@ -84,9 +84,8 @@ void LastPoseFile::keep_now(const Pose& pose, double time) {
   last_write_ = std::chrono::steady_clock::now();
   const Eigen::Quaterniond q(pose.rotation());
   const Eigen::Vector3d t = pose.translation();
-  const nlohmann::json j = {{"format", kFormat}, {"map", map_id_}, {"time", time}, {"x", t.x()},
-                            {"y", t.y()},         {"z", t.z()},     {"qx", q.x()},  {"qy", q.y()},
-                            {"qz", q.z()},        {"qw", q.w()}};
+  const nlohmann::json j = {{"format", kFormat}, {"map", map_id_}, {"time", time}, {"x", t.x()},  {"y", t.y()},
+                            {"z", t.z()},        {"qx", q.x()},    {"qy", q.y()},  {"qz", q.z()}, {"qw", q.w()}};
   write_file_atomically(file_, j.dump(1) + "\n", "last pose file");
 }
 
@@ -117,7 +116,8 @@ std::string LastPoseFile::follow(Localizer& localizer, const ScanRecord& record)
   }
   if (record.step.state != TrackState::kConverged) return "";
   held_back_.reset();
-  if (!keep(record.step.estimate.pose, record.time)) held_back_ = std::make_pair(record.step.estimate.pose, record.time);
+  if (!keep(record.step.estimate.pose, record.time))
+    held_back_ = std::make_pair(record.step.estimate.pose, record.time);
   return "";
 }
 

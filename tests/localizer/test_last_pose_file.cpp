@@ -14,7 +14,9 @@ namespace {
 using test::TempDir;
 
 // 0..8 m, 0..8 m, 0..1.6 m; another map differs in its box.
-TsdfMap small_map(int blocks = 10) { return TsdfMap(0.1f, 0.3f, Eigen::Vector3i(0, 0, 0), Eigen::Vector3i(blocks, 10, 2)); }
+TsdfMap small_map(int blocks = 10) {
+  return TsdfMap(0.1f, 0.3f, Eigen::Vector3i(0, 0, 0), Eigen::Vector3i(blocks, 10, 2));
+}
 
 TEST(LastPoseFile, KeepsAPoseForItsMapOnly) {
   TempDir dir;

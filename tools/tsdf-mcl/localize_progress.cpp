@@ -33,9 +33,10 @@ void LocalizeNarrator::explain_initial_fit(std::size_t index, const FilterStep& 
   explained_fit_ = true;
   const std::string misfit = initial_pose_misfit(step, options_, *options_.initial_pose);
   if (!misfit.empty()) {
-    progress_.note(format("scan %zu does not fit at the given initial pose: %s; the filter is searching around it "
-                          "and, if the fit stays poor, the whole map",
-                          index, misfit.c_str()));
+    progress_.note(
+        format("scan %zu does not fit at the given initial pose: %s; the filter is searching around it "
+               "and, if the fit stays poor, the whole map",
+               index, misfit.c_str()));
   }
 }
 
