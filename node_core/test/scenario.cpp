@@ -1,10 +1,14 @@
 #include "scenario.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include "message_checks.hpp"
 
@@ -48,16 +52,31 @@ bool run_cli(const std::string& args, const fs::path& log) {
   return status == 0;
 }
 
-void simulate_small_office(const fs::path& dir, int seed, double length_m) {
-  const fs::path log = dir / "cli.log";
-  char length[32];
-  std::snprintf(length, sizeof(length), "%g", length_m);
-  if (!run_cli("simulate --scene office --lidar vlp16 --route test --seed " + std::to_string(seed) + " --length " +
-                   length + " -o '" + (dir / "run").string() + "'",
-               log)) {
-    return;
+fs::path small_office() {
+  const fs::path cli(TSDF_MCL_CLI);
+  const fs::path cache(TSDF_MCL_NODE_TEST_CACHE);
+  const std::string name = "office_" + std::to_string(fs::last_write_time(cli).time_since_epoch().count());
+  fs::create_directories(cache);
+  const int lock = open((cache / "lock").c_str(), O_RDWR | O_CREAT, 0644);
+  EXPECT_GE(lock, 0) << cache / "lock";
+  flock(lock, LOCK_EX);
+  const fs::path dir = cache / name;
+  if (!fs::exists(dir / "complete")) {
+    for (const auto& entry : fs::directory_iterator(cache)) {
+      if (entry.is_directory()) fs::remove_all(entry.path());  // an earlier build's, or one left half built
+    }
+    fs::create_directories(dir);
+    const fs::path log = dir / "cli.log";
+    if (run_cli("simulate --scene office --lidar vlp16 --route test --seed 2 --length 8 -o '" + (dir / "run").string() +
+                    "'",
+                log) &&
+        run_cli("build-map --dataset '" + (dir / "run").string() + "' -o '" + (dir / "map.tsdf").string() + "'", log)) {
+      std::ofstream(dir / "complete") << "built\n";
+    }
   }
-  run_cli("build-map --dataset '" + (dir / "run").string() + "' -o '" + (dir / "map.tsdf").string() + "'", log);
+  flock(lock, LOCK_UN);
+  close(lock);
+  return dir;
 }
 
 std::vector<Played> play(NodeLink& link, const Dataset& data, const PlayOptions& o) {
@@ -66,6 +85,7 @@ std::vector<Played> play(NodeLink& link, const Dataset& data, const PlayOptions&
   mounting.child_frame_id = o.sensor_frame;
   link.tf({mounting}, true);
   std::vector<Played> played;
+  std::size_t converged = 0;
   for (const std::size_t i : o.scans) {
     Played p;
     p.stamp = raw(data.time(i) + o.time_offset);
@@ -81,8 +101,10 @@ std::vector<Played> play(NodeLink& link, const Dataset& data, const PlayOptions&
     p.heard = link.heard(p.stamp, std::chrono::seconds(120));
     if (!p.heard) ADD_FAILURE() << "no answer to the scan at " << p.stamp.sec << "." << p.stamp.nanosec << " s";
     if (p.heard && p.heard->used()) p.map_odom = link.map_odom(p.stamp, std::chrono::seconds(60));
+    if (p.heard && p.heard->status.message == "converged") ++converged;
     played.push_back(std::move(p));
     if (::testing::Test::HasFatalFailure() || !played.back().heard) break;
+    if (o.stop_after_converged > 0 && converged >= o.stop_after_converged) break;
   }
   return played;
 }

@@ -24,9 +24,10 @@ struct Played {
 };
 
 struct PlayOptions {
-  std::vector<std::size_t> scans;  // dataset indices, in order
-  double time_offset = 0.0;        // s added to the dataset's times (a replay on a clock that went back)
-  bool send_clock = false;         // /clock before each scan
+  std::vector<std::size_t> scans;        // dataset indices, in order
+  double time_offset = 0.0;              // s added to the dataset's times (a replay on a clock that went back)
+  bool send_clock = false;               // /clock before each scan
+  std::size_t stop_after_converged = 0;  // > 0: the play ends once the node said converged this many times
   std::string base_frame = "base_link", sensor_frame = "lidar", odom_frame = "odom";
 };
 
@@ -46,9 +47,10 @@ struct Outcome {
 Outcome summarize(const std::vector<Played>& played);
 std::string describe(const Outcome& o);
 
-// The simulated office's test route as a dataset (`tsdf-mcl simulate`) and its map from the same scans: small and
-// quick, enough for a node's plumbing. Fails the test where the CLI does.
-void simulate_small_office(const fs::path& dir, int seed, double length_m);
+// The simulated office's test route (8 m, seed 2) as a dataset, `run/`, and its map from the same scans, `map.tsdf`:
+// small and quick, enough for a node's plumbing. Built once per build of the tsdf-mcl program and shared by the node
+// tests (a lock file holds the others until the first has built it); fails the test where the CLI does.
+fs::path small_office();
 // Runs the tsdf-mcl program; false (with the command in the failure) where it fails.
 bool run_cli(const std::string& args, const fs::path& log);
 RawStamp raw(double seconds);

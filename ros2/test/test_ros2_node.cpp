@@ -24,14 +24,20 @@ using node::test::Played;
 using node::test::PlayOptions;
 using namespace std::chrono_literals;
 
-// Plays the last scan of the run again and again, 0.1 s apart (a robot standing still), until `done` holds for the
-// node's answer; that answer.
+// Where the played robot is: a scan of the run, and what the play adds to the run's times there.
+struct Place {
+  std::size_t scan = 0;
+  double offset = 0.0;
+};
+
+// Plays the scan of `place` again and again, 0.1 s apart (a robot standing still), until `done` holds for the node's
+// answer; that answer.
 template <typename Done>
-Heard stand_until(DdsLink& link, const Dataset& data, double& offset, Done done) {
+Heard stand_until(DdsLink& link, const Dataset& data, Place& place, Done done) {
   Heard h;
   for (int i = 0; i < 20; ++i) {
-    offset += 0.1;
-    PlayOptions o{{data.size() - 1}, offset, true};
+    place.offset += 0.1;
+    PlayOptions o{{place.scan}, place.offset, true};
     const std::vector<Played> played = node::test::play(link, data, o);
     if (played.empty() || !played.front().heard) return h;
     h = *played.front().heard;
@@ -44,17 +50,18 @@ Heard stand_until(DdsLink& link, const Dataset& data, double& offset, Done done)
 TEST(Ros2Node, LocalizesASimulatedRunAndFollowsItsRequests) {
   DomainClaim domain;
   const fs::path dir = test_folder("run");
-  node::test::simulate_small_office(dir, 3, 8.0);
-  if (HasFatalFailure()) return;
-  const Dataset data = Dataset::open(dir / "run");
+  const fs::path office = node::test::small_office();
+  ASSERT_TRUE(fs::exists(office / "complete")) << "see " << office / "cli.log";
+  const Dataset data = Dataset::open(office / "run");
   const fs::path params =
       params_file(dir,
-                  {"map_file: " + (dir / "map.tsdf").string(), "cloud_reliability: reliable", "backend: cpu", "seed: 1",
-                   "tf_timeout: 10.0", "last_pose_file: " + (dir / "last_pose.json").string()},
+                  {"map_file: " + (office / "map.tsdf").string(), "cloud_reliability: reliable", "backend: cpu",
+                   "seed: 1", "tf_timeout: 10.0", "last_pose_file: " + (dir / "last_pose.json").string()},
                   /*use_sim_time=*/true);
   const std::vector<std::string> ros_args = {"--params-file", params.string(), "-p", "map_cloud_points:=1000"};
   std::vector<std::size_t> scans;
   for (std::size_t i = 0; i < data.size(); i += 2) scans.push_back(i);
+  Place here;
   {
     RunningNode node(ros_args, dir / "node.log");
     ASSERT_TRUE(node.up);
@@ -74,20 +81,22 @@ TEST(Ros2Node, LocalizesASimulatedRunAndFollowsItsRequests) {
     // 2. nav2's reinitialize_global_localization, then the run played again: the clock goes back, the node restarts
     //    tf and the filter, and recovers.
     link.global_localization();
-    o = node::test::summarize(node::test::play(link, data, {scans, 0.0, true}));
+    node::test::PlayOptions replay{scans, 0.0, true};
+    replay.stop_after_converged = 10;
+    o = node::test::summarize(node::test::play(link, data, replay));
     std::printf("ros2 node, replayed after reinitialize_global_localization: %s\n", node::test::describe(o).c_str());
     ASSERT_TRUE(o.first_converged) << node::test::describe(o);
     EXPECT_NE(o.first_state, "converged");
     EXPECT_EQ(o.false_claims, 0u);
-    double offset = 0.0;
-    Heard h = stand_until(link, data, offset, [](const Heard& x) { return x.status.message == "converged"; });
+    here = {scans[o.scans - 1], 0.0};  // where the replay ended
+    Heard h = stand_until(link, data, here, [](const Heard& x) { return x.status.message == "converged"; });
     EXPECT_EQ(h.count("time_jumps"), 1u);
     EXPECT_EQ(h.count("global_searches"), 1u);
     EXPECT_NE(h.value("reason").find("one place holds"), std::string::npos) << h.value("reason");
 
     // 3. The topic trigger: a global search from the next scan.
     link.trigger_global_localization();
-    h = stand_until(link, data, offset, [](const Heard& x) { return x.count("global_searches") == 2; });
+    h = stand_until(link, data, here, [](const Heard& x) { return x.count("global_searches") == 2; });
     EXPECT_NE(h.status.message, "converged") << "the first scan of a global search claims convergence";
 
     // 4. RViz's 2D Pose Estimate at the route's start, x, y, yaw only (0.36 m and 4.6 deg off; z, roll and pitch come
@@ -99,8 +108,9 @@ TEST(Ros2Node, LocalizesASimulatedRunAndFollowsItsRequests) {
     estimate.pose.position = {truth.translation().x() + 0.3, truth.translation().y() - 0.2, 0.0};
     estimate.pose.orientation = {0.0, 0.0, std::sin(yaw / 2), std::cos(yaw / 2)};
     link.initial_pose(estimate);
-    offset += data.time(data.size() - 1) - data.time(0) + 0.1;
-    const std::vector<Played> played = node::test::play(link, data, {scans, offset, true});
+    node::test::PlayOptions again{scans, here.offset + data.time(here.scan) - data.time(0) + 0.1, true};
+    again.stop_after_converged = 10;
+    const std::vector<Played> played = node::test::play(link, data, again);
     const auto first = std::find_if(played.begin(), played.end(),
                                     [](const Played& p) { return p.heard && p.heard->count("initial_poses") == 1; });
     ASSERT_NE(first, played.end()) << "the /initialpose was not applied";
@@ -117,16 +127,17 @@ TEST(Ros2Node, LocalizesASimulatedRunAndFollowsItsRequests) {
     ASSERT_TRUE(o.first_converged);
     EXPECT_EQ(o.false_claims, 0u);
     EXPECT_EQ(o.last_state, "converged");
+    here = {scans[o.scans - 1], again.time_offset};
   }
 
   // 5. A restart: the node starts at the last converged pose it kept, not with a global search.
   ASSERT_TRUE(fs::exists(dir / "last_pose.json"));
   RunningNode restarted(ros_args, dir / "node2.log");
   ASSERT_TRUE(restarted.up);
-  double offset = 1000.0;
-  const Heard h = stand_until(restarted.link, data, offset, [](const Heard& x) { return x.pose.has_value(); });
+  here.offset += 1000.0;  // a restart later, where the robot stopped
+  const Heard h = stand_until(restarted.link, data, here, [](const Heard& x) { return x.pose.has_value(); });
   ASSERT_TRUE(h.pose);
-  EXPECT_LT((h.pose->pose.translation() - data.pose(data.size() - 1).translation()).norm(), 0.3);
+  EXPECT_LT((h.pose->pose.translation() - data.pose(here.scan).translation()).norm(), 0.3);
   EXPECT_EQ(h.count("global_searches"), 0u);
   restarted.process.stop();
   if (!HasFailure()) fs::remove_all(dir);
@@ -165,9 +176,9 @@ void expect_bad_starts_refused(const fs::path& dir, const std::string& map) {
 TEST(Ros2Node, SurvivesHostileMessagesAndRefusesBadStarts) {
   DomainClaim domain;
   const fs::path dir = test_folder("hostile");
-  node::test::simulate_small_office(dir, 2, 6.0);
-  if (HasFatalFailure()) return;
-  const std::string map = "map_file:=" + (dir / "map.tsdf").string();
+  const fs::path office = node::test::small_office();
+  ASSERT_TRUE(fs::exists(office / "complete")) << "see " << office / "cli.log";
+  const std::string map = "map_file:=" + (office / "map.tsdf").string();
   expect_bad_starts_refused(dir, map);
 
   RunningNode node({"-p", map,
@@ -194,9 +205,9 @@ TEST(Ros2Node, SurvivesHostileMessagesAndRefusesBadStarts) {
 TEST(Ros2Node, TakesTheShippedParamsAndMatchesTheQosOfRos2Publishers) {
   DomainClaim domain;
   const fs::path dir = test_folder("qos");
-  node::test::simulate_small_office(dir, 2, 2.0);
-  if (HasFatalFailure()) return;
-  RunningNode node({"--params-file", TSDF_MCL_ROS2_PARAMS, "-p", "map_file:=" + (dir / "map.tsdf").string(), "-p",
+  const fs::path office = node::test::small_office();
+  ASSERT_TRUE(fs::exists(office / "complete")) << "see " << office / "cli.log";
+  RunningNode node({"--params-file", TSDF_MCL_ROS2_PARAMS, "-p", "map_file:=" + (office / "map.tsdf").string(), "-p",
                     "last_pose_file:=''"},
                    dir / "node.log");
   ASSERT_TRUE(node.up);

@@ -21,7 +21,10 @@ TEST(Ros2RealData, LocalizesTheOddBalmScansOverDds) {
   const Dataset data = Dataset::open(data_dir);
   const fs::path params = params_file(dir,
                                       {"map_file: " + (dir / "even.tsdf").string(), "cloud_reliability: reliable",
-                                       "seed: 1", "tf_timeout: 10.0", "last_pose_file: ''", "map_cloud_points: 1000"},
+                                       "seed: 1", "tf_timeout: 10.0", "last_pose_file: ''", "map_cloud_points: 1000",
+                                       // What a person carrying the sensor knows (as RealData.BalmGlobal... gives
+                                       // the CLI): level at the start, 1.2-1.8 m above the floor.
+                                       "backend: cpu", "init_max_tilt: 0.05", "init_height_band: [1.2, 1.8]"},
                                       /*use_sim_time=*/true);
   RunningNode node({"--params-file", params.string()}, dir / "node.log");
   ASSERT_TRUE(node.up);

@@ -241,10 +241,10 @@ TEST(Ros2Wire, MessagesTheNodeReadsAreEncodedAsTheMsgLayoutsSay) {
 TEST(Ros2Wire, TheNodesMessagesAndEndpointsAreRos2s) {
   DomainClaim domain;
   const fs::path dir = test_folder("wire");
-  node::test::simulate_small_office(dir, 2, 2.0);
-  if (HasFatalFailure()) return;
-  const Dataset data = Dataset::open(dir / "run");
-  RunningNode node({"-p", "map_file:=" + (dir / "map.tsdf").string(), "-p", "last_pose_file:=''", "-p",
+  const fs::path office = node::test::small_office();
+  ASSERT_TRUE(fs::exists(office / "complete")) << "see " << office / "cli.log";
+  const Dataset data = Dataset::open(office / "run");
+  RunningNode node({"-p", "map_file:=" + (office / "map.tsdf").string(), "-p", "last_pose_file:=''", "-p",
                     "cloud_reliability:=reliable", "-p", "map_cloud_points:=500", "-p", "tf_timeout:=10.0", "-p",
                     "backend:=cpu", "-p", "particles:=2000"},
                    dir / "node.log");
