@@ -110,7 +110,8 @@ bool wait_for_matched(dds_entity_t participant, dds_entity_t entity, int count, 
   return ok;
 }
 
-MessageLoop::MessageLoop(dds_entity_t participant) : participant_(participant) {
+MessageLoop::MessageLoop(dds_entity_t participant, std::function<void(const std::string&)> on_error)
+    : participant_(participant), on_error_(std::move(on_error)) {
   waitset_ = dds_create_waitset(participant);
   guard_ = dds_create_guardcondition(participant);
   dds_waitset_attach(waitset_, guard_, -1);
@@ -143,7 +144,13 @@ void MessageLoop::run() {
     for (dds_return_t i = 0; i < n && !stop_; ++i) {
       if (triggered[static_cast<std::size_t>(i)] < 0) continue;  // the guard
       Entry& e = entries_[static_cast<std::size_t>(triggered[static_cast<std::size_t>(i)])];
-      while (const Sample s = e.reader->take()) e.handler(s);
+      while (const Sample s = e.reader->take()) {
+        try {
+          e.handler(s);
+        } catch (const std::exception& error) {
+          on_error_(std::string(e.reader->type().m_typename) + ": " + error.what());
+        }
+      }
     }
   }
 }

@@ -61,10 +61,11 @@ class Writer {
 bool wait_for_matched(dds_entity_t participant, dds_entity_t entity, int count, std::chrono::milliseconds timeout);
 
 // A thread that waits on a waitset for data on its readers and calls each reader's handler for each sample, until
-// it is destroyed (a guard condition wakes it).
+// it is destroyed (a guard condition wakes it). A handler that throws has its error passed to `on_error`, and the
+// loop goes on with the next sample.
 class MessageLoop {
  public:
-  explicit MessageLoop(dds_entity_t participant);
+  MessageLoop(dds_entity_t participant, std::function<void(const std::string&)> on_error);
   ~MessageLoop();
   MessageLoop(const MessageLoop&) = delete;
   MessageLoop& operator=(const MessageLoop&) = delete;
@@ -79,6 +80,7 @@ class MessageLoop {
     std::function<void(const Sample&)> handler;
   };
   dds_entity_t participant_;
+  std::function<void(const std::string&)> on_error_;
   dds_entity_t waitset_ = 0, guard_ = 0;
   std::vector<dds_entity_t> conditions_;
   std::vector<Entry> entries_;

@@ -13,10 +13,18 @@ namespace {
 
 const std::vector<std::string> kOwnParameters = {"use_sim_time", "cloud_reliability"};
 
-node::NodeParameters with_ros2_naming(node::NodeParameters p) {
-  p.prefix = "";
-  p.separator = '.';
-  return p;
+RosArguments with_ros2_naming(RosArguments a) {
+  a.parameters.prefix = "";
+  a.parameters.separator = '.';
+  return a;
+}
+
+// The node's own settings, the point topics' names resolved once: a bad name stops the node as a bad value does.
+node::NodeSettings checked_settings(const RosArguments& arguments, const NameResolver& names) {
+  node::NodeSettings s =
+      node::settings_from(arguments.parameters, node::default_last_pose_file(arguments.node.fully_qualified()));
+  for (const std::string& t : s.point_topics) names.resolve(t);
+  return s;
 }
 
 }  // namespace
@@ -41,9 +49,12 @@ Ros2Settings ros2_settings_from(const node::NodeParameters& p) {
 }
 
 Ros2Node::Ros2Node(const RosArguments& arguments, const DomainConfig& domain)
-    : arguments_(arguments),
+    : arguments_(with_ros2_naming(arguments)),
       names_(arguments.node, arguments.remaps),
-      ros2_(ros2_settings_from(arguments.parameters)),
+      ros2_(ros2_settings_from(arguments_.parameters)),
+      // Every parameter is checked before the node joins the domain: a bad start sends nothing.
+      settings_(checked_settings(arguments_, names_)),
+      options_(node::localizer_options_of(arguments_.parameters)),
       participant_(domain),
       pose_(participant_.handle(), geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, topic("amcl_pose"),
             latched_qos(1)),
@@ -55,26 +66,22 @@ Ros2Node::Ros2Node(const RosArguments& arguments, const DomainConfig& domain)
                    reliable_qos(10)),
       tf_(participant_.handle(), tf2_msgs_msg_dds__TFMessage__desc, topic("/tf"), reliable_qos(100)),
       map_cloud_(participant_.handle(), sensor_msgs_msg_dds__PointCloud2__desc, topic("~/map_cloud"), latched_qos(1)) {
-  arguments_.parameters = with_ros2_naming(arguments_.parameters);
-  const node::NodeParameters& p = arguments_.parameters;
-  const node::NodeSettings settings =
-      node::settings_from(p, node::default_last_pose_file(arguments_.node.fully_qualified()));
-  const LocalizerOptions options = node::localizer_options_of(p);
-  for (const std::string& w : node::unknown_parameter_warnings(p, kOwnParameters)) {
+  for (const std::string& w : node::unknown_parameter_warnings(arguments_.parameters, kOwnParameters)) {
     log(node::LogLevel::kWarn, "tsdf_mcl: " + w + " (see tsdf-mcl localize --help and docs/ros2.md)");
   }
   for (const std::string& n : arguments_.notes) log(node::LogLevel::kInfo, "tsdf_mcl: " + n);
-  for (const std::string& t : settings.point_topics) names_.resolve(t);  // a bad name stops the node here
   log(node::LogLevel::kInfo, "tsdf_mcl: " + arguments_.node.fully_qualified() + " in DDS " + domain.described +
                                  (ros2_.use_sim_time ? ", sim time from /clock" : ""));
-  core_ = std::make_unique<node::LocalizationCore>(settings, options, *this);
+  core_ = std::make_unique<node::LocalizationCore>(settings_, options_, *this);
   subscribe();
 }
 
 Ros2Node::~Ros2Node() {
-  // The loops first: their threads call into the core.
+  // The loops first (their threads call into the core), then the core (it logs through this object as it keeps the
+  // last pose).
   tf_loop_.reset();
   message_loop_.reset();
+  core_.reset();
 }
 
 void Ros2Node::subscribe() {
@@ -84,8 +91,9 @@ void Ros2Node::subscribe() {
     readers_.push_back(std::make_unique<Reader>(pp, type, topic(name), qos));
     return *readers_.back();
   };
-  tf_loop_ = std::make_unique<MessageLoop>(pp);
-  message_loop_ = std::make_unique<MessageLoop>(pp);
+  const auto on_error = [this](const std::string& what) { log(node::LogLevel::kError, "tsdf_mcl: " + what); };
+  tf_loop_ = std::make_unique<MessageLoop>(pp, on_error);
+  message_loop_ = std::make_unique<MessageLoop>(pp, on_error);
   node::LocalizationCore& core = *core_;
   tf_loop_->add(reader(tf2_msgs_msg_dds__TFMessage__desc, "/tf", reliable_qos(100)), [&core](const Sample& m) {
     core.on_tf(transforms_of(*static_cast<const tf2_msgs_msg_dds__TFMessage_*>(m.get())), false);

@@ -66,6 +66,8 @@ class Ros2Node : public node::NodeOutput {
   RosArguments arguments_;
   NameResolver names_;
   Ros2Settings ros2_;
+  node::NodeSettings settings_;
+  LocalizerOptions options_;
   Participant participant_;
   Writer pose_, particles_, hypotheses_, diagnostics_, tf_, map_cloud_;
   std::unique_ptr<node::LocalizationCore> core_;

@@ -88,7 +88,7 @@ DdsLink::DdsLink(node::test::Child& node, double transform_tolerance)
       status_(participant(), diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics", reliable_qos(100)),
       pose_(participant(), geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, "rt/amcl_pose", reliable_qos(100)),
       tf_in_(participant(), tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", reliable_qos(100)) {
-  loop_ = std::make_unique<MessageLoop>(participant());
+  loop_ = std::make_unique<MessageLoop>(participant(), [](const std::string& what) { ADD_FAILURE() << what; });
   loop_->add(status_, [this](const Sample& s) {
     const auto& m = *static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(s.get());
     for (std::uint32_t i = 0; i < m.status._length; ++i) {
