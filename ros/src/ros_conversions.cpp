@@ -1,7 +1,8 @@
 #include "ros_conversions.hpp"
 
-#include <Eigen/Geometry>
 #include <algorithm>
+
+#include "tsdf_mcl/io/ros_message_fields.hpp"
 
 namespace tsdf_mcl::ros_node {
 
@@ -52,24 +53,13 @@ ros::Time ros_time(node::Stamp t) {
 
 geometry_msgs::Pose msg_from_pose(const Pose& pose) {
   geometry_msgs::Pose msg;
-  const Eigen::Quaterniond q(pose.rotation());
-  msg.position.x = pose.translation().x();
-  msg.position.y = pose.translation().y();
-  msg.position.z = pose.translation().z();
-  msg.orientation.x = q.x();
-  msg.orientation.y = q.y();
-  msg.orientation.z = q.z();
-  msg.orientation.w = q.w();
+  fill_pose_fields(pose, msg.position, msg.orientation);
   return msg;
 }
 
 geometry_msgs::Transform transform_from_pose(const Pose& pose) {
-  const geometry_msgs::Pose p = msg_from_pose(pose);
   geometry_msgs::Transform t;
-  t.translation.x = p.position.x;
-  t.translation.y = p.position.y;
-  t.translation.z = p.position.z;
-  t.rotation = p.orientation;
+  fill_pose_fields(pose, t.translation, t.rotation);
   return t;
 }
 
@@ -82,25 +72,10 @@ geometry_msgs::PoseArray pose_array(const node::PosesOut& poses) {
 }
 
 sensor_msgs::PointCloud2 msg_from_cloud(const node::CloudOut& cloud) {
-  const PointCloud2Layout& layout = cloud.cloud.layout;
   sensor_msgs::PointCloud2 msg;
   msg.header.stamp = ros_time(cloud.stamp);
   msg.header.frame_id = cloud.frame_id;
-  msg.height = layout.height;
-  msg.width = layout.width;
-  msg.is_bigendian = layout.is_bigendian;
-  msg.point_step = layout.point_step;
-  msg.row_step = layout.row_step;
-  msg.is_dense = layout.is_dense;
-  for (const PointField& f : layout.fields) {
-    sensor_msgs::PointField field;
-    field.name = f.name;
-    field.offset = f.offset;
-    field.datatype = f.datatype;
-    field.count = f.count;
-    msg.fields.push_back(field);
-  }
-  msg.data = cloud.cloud.data;
+  fill_pointcloud2_message(cloud.cloud, msg);
   return msg;
 }
 

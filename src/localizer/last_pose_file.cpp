@@ -9,7 +9,7 @@
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/one_line.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 
 namespace tsdf_mcl {
 namespace {
