@@ -2,6 +2,7 @@
 #   tsdf-mcl         the tsdf-mcl program (component cli)
 #   libtsdf-mcl-dev  the static layer libraries, headers, CMake package and pkg-config file (component library)
 #   tsdf-mcl-ros     the ROS 1 node, its launch files and configuration (component ros; where the node is built)
+#   tsdf-mcl-ros2    the ROS 2 node over DDS and its params file (component ros2; where Cyclone DDS is found)
 # for the architecture the build targets (amd64, or arm64 from cmake --preset arm64). Native builds take their
 # shared-library Depends from dpkg-shlibdeps; cross builds cannot (the arm64 libraries are in a sysroot, not in
 # dpkg's database), so they name Debian 12's runtime packages of what the program links.
@@ -32,6 +33,9 @@ set(CPACK_COMPONENTS_ALL cli library)
 if(TSDF_MCL_HAVE_ROS_NODE)
   list(APPEND CPACK_COMPONENTS_ALL ros)
 endif()
+if(TSDF_MCL_HAVE_ROS2_NODE)
+  list(APPEND CPACK_COMPONENTS_ALL ros2)
+endif()
 
 set(CPACK_DEBIAN_CLI_PACKAGE_NAME tsdf-mcl)
 set(CPACK_COMPONENT_CLI_DESCRIPTION "tsdf-mcl command-line program: build-map, localize, bench, simulate, render")
@@ -55,6 +59,10 @@ string(CONCAT CPACK_DEBIAN_LIBRARY_PACKAGE_DEPENDS ${_dev_depends})
 set(CPACK_DEBIAN_ROS_PACKAGE_NAME tsdf-mcl-ros)
 set(CPACK_COMPONENT_ROS_DESCRIPTION "tsdf-mcl ROS 1 node (tsdf_mcl_node), launch files and configuration")
 set(CPACK_DEBIAN_ROS_PACKAGE_RECOMMENDS "mesa-vulkan-drivers | vulkan-icd, rosout, python3-roslaunch")
+
+set(CPACK_DEBIAN_ROS2_PACKAGE_NAME tsdf-mcl-ros2)
+set(CPACK_COMPONENT_ROS2_DESCRIPTION "tsdf-mcl ROS 2 node over Cyclone DDS (tsdf_mcl_ros2) and its params file")
+set(CPACK_DEBIAN_ROS2_PACKAGE_RECOMMENDS "mesa-vulkan-drivers | vulkan-icd")
 
 if(CMAKE_CROSSCOMPILING)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS OFF)

@@ -6,7 +6,7 @@ The allowed edges are the table LINKS below: a layer may include its own headers
 directly or through them. The check fails on
 - an include of tsdf_mcl/<layer>/... from a layer that does not link <layer> (an include against the grain),
 - an unqualified tsdf_mcl/X.hpp include, or a reach into src/ from outside the layer (tests, tools, bench, fuzz,
-  ros and python use public headers and their own support folders),
+  ros, ros2, node_core and python use public headers and their own support folders),
 - a tsdf_mcl_layer(...) call in src/CMakeLists.txt whose tsdf_mcl:: links differ from LINKS,
 - a row of docs/architecture.md's layer table whose "links" column differs from LINKS.
 Usage: python3 tools/check_layers.py [REPO_ROOT]. Exit 0 when clean, 1 with one line per finding.
@@ -32,7 +32,7 @@ LINKS = {
     "render": ["map", "io"],
 }
 # Folders outside the library: their files may include any public header, but nothing under src/.
-FRONTENDS = ["tools", "tests", "bench", "fuzz", "ros", "python", "examples"]
+FRONTENDS = ["tools", "tests", "bench", "fuzz", "ros", "ros2", "node_core", "python", "examples"]
 SOURCE_SUFFIXES = {".cpp", ".hpp", ".h", ".c", ".cc"}
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^">]+)[">]', re.MULTILINE)
 

@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 format=$(command -v clang-format-14 || command -v clang-format || true)
 [ -n "$format" ] || { echo "format.sh: clang-format is not installed (apt-get install clang-format-14)" >&2; exit 1; }
-mapfile -t files < <(git ls-files --cached --others --exclude-standard -- 'src/*' 'include/*' 'tools/*' 'tests/*' 'bench/*' 'fuzz/*' 'ros/*' 'python/*' |
+mapfile -t files < <(git ls-files --cached --others --exclude-standard -- 'src/*' 'include/*' 'tools/*' 'tests/*' 'bench/*' 'fuzz/*' 'ros/*' 'ros2/*' 'node_core/*' 'python/*' |
                      grep -E '\.(cpp|hpp|h|c)$' | grep -v '^shaders/' | while read -r f; do [ -e "$f" ] && echo "$f"; done)
 if [ "${1:-}" = "--check" ]; then
   bad=0

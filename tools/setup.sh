@@ -4,9 +4,10 @@
 # bags (rosbag2, docs/bags.md); Debian's ROS 1 rosbag_storage and message headers, ROS 1 bags (the build leaves
 # them out where they are missing); roscpp,
 # tf2_ros, rosmaster, roslaunch and rosbag, the ROS 1 node and its test (docs/ros.md; left out where missing);
+# Cyclone DDS and its idlc, the ROS 2 node over DDS and its tests (docs/ros2.md; left out where missing);
 # pybind11, numpy, pytest, hypothesis and matplotlib, the Python module, its tests and examples (docs/python.md);
-# clang-format and clang-tidy, the code style checks. --arm64 also installs the aarch64 cross compiler and qemu-user and unpacks
-# the arm64 sysroot (tools/arm64_sysroot.sh; cmake --preset arm64, tools/test_arm64.sh, docs/deploy.md).
+# clang-format and clang-tidy, the code style checks. --arm64 also installs the aarch64 cross compiler and qemu-user
+# and unpacks the arm64 sysroot (tools/arm64_sysroot.sh; cmake --preset arm64, tools/test_arm64.sh, docs/deploy.md).
 set -euo pipefail
 
 arm64=0
@@ -24,6 +25,7 @@ packages=(
   libtf2-msgs-dev
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest python3-matplotlib python3-hypothesis
   libroscpp-dev libtf2-ros-dev libstd-srvs-dev libdiagnostic-msgs-dev python3-rosmaster python3-roslaunch rosout python3-rosbag librosbag-dev
+  cyclonedds-dev cyclonedds-tools
 )
 
 if [ "$(id -u)" -eq 0 ]; then

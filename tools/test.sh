@@ -33,10 +33,10 @@ step_build() { build_preset "$preset"; }
 step_suite() { ctest --preset "$preset" -j "$jobs" --timeout 900; }
 step_asan() {
   build_preset asan
-  # The end-to-end localization runs (EndToEnd.*, RealData.*, the ROS node's RosNode.*) take 5 to more than 15
-  # minutes each under the sanitizers (docs/robustness.md); their code paths are covered by the smaller filter tests,
-  # and they run in the suite above.
-  local asan_skip='^(EndToEnd|RealData|RosNode)\.'
+  # The end-to-end localization runs (EndToEnd.*, RealData.*, the ROS nodes' RosNode.*, Ros2Node.*, Ros2RealData.*
+  # and the node core's runs but its hostile messages) take 5 to more than 15 minutes each under the sanitizers
+  # (docs/robustness.md); their code paths are covered by the smaller filter tests, and they run in the suite above.
+  local asan_skip='^(EndToEnd|RealData|RosNode|Ros2Node|Ros2RealData)\.|^LocalizationCoreRun\.(Localizes|ALast|Refuses)'
   # Leaks are reported at exit, after the Vulkan loader unloaded the validation layer; keeping libraries mapped lets
   # tools/lsan.supp name it.
   cc -O2 -shared -fPIC -o build/asan/keep_libraries_loaded.so tools/keep_libraries_loaded.c

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Debian packages of a (native) build folder with CPack and checks what a clean machine would get:
-#   1. the packages exist with their contents (program; static libraries + CMake package; the ROS node if built);
+#   1. the packages exist with their contents (program; static libraries + CMake package; the ROS 1 and ROS 2 nodes
+#      where built);
 #   2. every shared library the program and the node load is provided by a package their Depends name
 #      (readelf NEEDED -> dpkg -S), and apt can satisfy those Depends (apt-get install --simulate ./PKG.deb);
 #   3. the program unpacked from its package alone (dpkg -x into an empty folder) answers --help and runs a tiny
@@ -28,6 +29,10 @@ if grep -q '^TSDF_MCL_HAVE_ROS_NODE:INTERNAL=ON' "$build/CMakeCache.txt" 2>/dev/
   grep -q 'CPACK_COMPONENTS_ALL.*ros' "$build/CPackConfig.cmake"; then
   [ -n "$ros" ] || fail "the ROS node is built but there is no tsdf-mcl-ros package"
 fi
+ros2=$(ls "$work"/pkgs/tsdf-mcl-ros2_*_"$arch".deb 2>/dev/null || true)
+if grep -q 'CPACK_COMPONENTS_ALL.*ros2' "$build/CPackConfig.cmake"; then
+  [ -n "$ros2" ] || fail "the ROS 2 node is built but there is no tsdf-mcl-ros2 package"
+fi
 
 # 1. contents (listed to files first: grep -q closing a pipe would fail dpkg-deb under pipefail)
 dpkg-deb -c "$cli" >"$work/cli.list"
@@ -44,6 +49,10 @@ if [ -n "$ros" ]; then
   dpkg-deb -c "$ros" >"$work/ros.list"
   ros_node=$(awk '/\/tsdf_mcl_node$/ {print substr($NF, 2)}' "$work/ros.list")
   [ -n "$ros_node" ] || fail "$ros lacks tsdf_mcl_node"
+fi
+if [ -n "$ros2" ]; then
+  dpkg-deb -c "$ros2" >"$work/ros2.list"
+  grep -q '\./usr/bin/tsdf_mcl_ros2$' "$work/ros2.list" || fail "$ros2 lacks usr/bin/tsdf_mcl_ros2"
 fi
 if grep -q '\.a$\|/include/' "$work/cli.list"; then fail "$cli carries the library's files"; fi
 
@@ -85,6 +94,7 @@ check_depends() {  # deb, binary path inside it
 check_depends "$cli" /usr/bin/tsdf-mcl
 check_depends "$cli" /usr/bin/tsdf-mcl-bench
 [ -z "$ros" ] || check_depends "$ros" "$ros_node"
+[ -z "$ros2" ] || check_depends "$ros2" /usr/bin/tsdf_mcl_ros2
 apt-get install --simulate -qq "$dev" >"$work/apt-dev.log" 2>&1 ||
   { cat "$work/apt-dev.log" >&2; fail "apt cannot satisfy the Depends of $(basename "$dev")"; }
 

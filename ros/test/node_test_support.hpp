@@ -15,65 +15,14 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "free_port.hpp"
 
 namespace tsdf_mcl::ros_node {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
-
-// A child process with its output in a log file; stopped with SIGINT (as roslaunch does), then SIGKILL.
-class Child {
- public:
-  Child(const std::vector<std::string>& args, const fs::path& log) : name_(args.front()) {
-    pid_ = fork();
-    if (pid_ == 0) {
-      const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) {
-        dup2(fd, 1);
-        dup2(fd, 2);
-      }
-      std::vector<char*> argv;
-      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      execvp(argv[0], argv.data());
-      _exit(127);
-    }
-  }
-  ~Child() { stop(); }
-  // Exit status once the child ended within `timeout`, else -1 (still running).
-  int wait_for(std::chrono::seconds timeout) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (pid_ > 0 && std::chrono::steady_clock::now() < end) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      std::this_thread::sleep_for(50ms);
-    }
-    return pid_ > 0 ? -1 : 0;
-  }
-  bool running() {
-    if (pid_ <= 0) return false;
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) == pid_) pid_ = -1;
-    return pid_ > 0;
-  }
-  void stop() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGINT);
-    if (wait_for(10s) < 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    pid_ = -1;
-  }
-
- private:
-  std::string name_;
-  pid_t pid_ = -1;
-};
+using node::test::Child;
 
 inline void run_cli(const std::string& args, const fs::path& log) {
   const std::string cmd = std::string(TSDF_MCL_CLI) + " " + args + " >>'" + log.string() + "' 2>&1";

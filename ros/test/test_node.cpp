@@ -34,10 +34,14 @@
 #include <vector>
 
 #include "node_test_support.hpp"
+#include "message_checks.hpp"
 #include "ros_conversions.hpp"
 
 namespace tsdf_mcl::ros_node {
 namespace {
+
+Pose pose_from_msg(const geometry_msgs::Pose& m) { return node::to_pose(raw_pose(m)); }
+Pose pose_from_msg(const geometry_msgs::Transform& m) { return node::to_pose(raw_pose(m)); }
 
 struct Scan {
   ros::Time stamp;
@@ -230,13 +234,18 @@ class BagSession {
         // the bag's /tf_static is latched (the writer marks it so), so a late connection still gets the extrinsic.
         play_({"rosbag", "play", "--clock", "-q", "--wait-for-subscribers", (dir / "test.bag").string()}) {
     spinner_.start();
-    node_.emplace(
-        std::vector<std::string>{TSDF_MCL_NODE, "__name:=tsdf_mcl", "_map_file:=" + (dir / "office.tsdf").string(),
-                                 "_point_topics:=/points", "_seed:=1"},
-        dir / "node.log");
+    node_.emplace(node_args_, dir / "node.log");
   }
 
   Child& node() { return *node_; }
+
+  // 4. A restart: the node starts at the last converged pose it kept (ROS_HOME/tsdf_mcl_last_pose.json).
+  void restart_from_last_pose() {
+    node_->stop();
+    ASSERT_TRUE(fs::exists(dir_ / "ros" / "tsdf_mcl_last_pose.json")) << "no last pose kept";
+    node_.emplace(node_args_, dir_ / "node2.log");
+    ASSERT_TRUE(recorder_.wait_for_log("starting at the last converged pose", 120s)) << "see " << dir_ / "node2.log";
+  }
 
   void wait_until_up() {
     ASSERT_TRUE(ros::service::waitForService("/global_localization", ros::Duration(120.0)))
@@ -346,6 +355,9 @@ class BagSession {
   tf2_ros::TransformListener tf_listener_;
   ros::Publisher initial_pose_;
   ros::AsyncSpinner spinner_;
+  std::vector<std::string> node_args_{TSDF_MCL_NODE, "__name:=tsdf_mcl",
+                                      "_map_file:=" + (dir_ / "office.tsdf").string(), "_point_topics:=/points",
+                                      "_seed:=1"};
   std::optional<Child> node_;  // started once the spinner runs
   std::vector<std::string> play_;
 };
@@ -369,6 +381,8 @@ TEST(RosNode, LocalizesABagGloballyAndFollowsItsServices) {
   session.relocalize_on_request();
   if (HasFatalFailure()) return;
   session.track_from_initial_pose();
+  if (HasFatalFailure()) return;
+  session.restart_from_last_pose();
   if (HasFatalFailure()) return;
   session.node().stop();
   rosmaster.stop();

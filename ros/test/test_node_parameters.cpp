@@ -110,7 +110,7 @@ TEST_F(NodeParameters, AmclAliasesPassAndTyposAreWarnedAbout) {
   const auto [status, log] =
       run_node({"_laser_max_beams:=64", "_odom_model_type:=diff", "_odom_alpha1:=0.3", "_sigma_hitt:=0.2"});
   EXPECT_EQ(status, 1) << log;
-  EXPECT_EQ(log.find("parameter ~"), std::string::npos) << "the aliases are accepted: " << log;
+  EXPECT_EQ(log.find("tsdf_mcl: parameter ~"), std::string::npos) << "the aliases are accepted: " << log;
   EXPECT_NE(log.find("missing.tsdf"), std::string::npos) << "it stops at the map: " << log;
   EXPECT_NE(log.find("sigma_hitt ignored (did you mean ~sigma_hit?)"), std::string::npos) << log;
 }

@@ -70,6 +70,16 @@ void TransformTree::add(const std::string& parent, const std::string& child, dou
   }
 }
 
+void TransformTree::forget_older_than(double keep) {
+  for (auto& [child, edge] : edges_) {
+    if (edge.is_static || edge.samples.empty()) continue;
+    const double oldest = edge.samples.back().first - keep;
+    const auto first_kept = std::lower_bound(edge.samples.begin(), edge.samples.end(), oldest,
+                                             [](const std::pair<double, Pose>& s, double t) { return s.first < t; });
+    edge.samples.erase(edge.samples.begin(), first_kept);
+  }
+}
+
 bool TransformTree::has_frame(const std::string& frame) const {
   if (edges_.count(frame)) return true;
   return std::any_of(edges_.begin(), edges_.end(), [&](const auto& kv) { return kv.second.parent == frame; });

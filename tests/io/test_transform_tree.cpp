@@ -65,6 +65,20 @@ TEST(TransformTree, SamplesOutOfOrderAndRepeated) {
   expect_near(tree.lookup("odom", "base", 1.5), pose_from_xyz_rpy(1.5, 0, 0, 0, 0, 0));
 }
 
+// A live stream keeps a window: samples more than `keep` before an edge's newest go, static edges stay.
+TEST(TransformTree, ForgetsSamplesOlderThanTheWindow) {
+  TransformTree tree = robot();
+  tree.add("odom", "base_footprint", 30.0, pose_from_xyz_rpy(3, 4, 0, 0, 0, 1.0), false);
+  tree.forget_older_than(18.5);  // keeps 11.5 .. 30 s: the samples at 12 and 30 s
+  EXPECT_EQ(tree.coverage("odom", "lidar"), std::make_pair(12.0, 30.0));
+  expect_near(tree.lookup("odom", "base_footprint", 21.0), pose_from_xyz_rpy(2.5, 4, 0, 0, 0, 1.0));
+  EXPECT_NE(error_of([&] { tree.lookup("odom", "base_footprint", 11.0); }).find("is known from 12 to 30 s"),
+            std::string::npos);
+  expect_near(tree.lookup("lidar", "camera", 0.0), robot().lookup("lidar", "camera", 0.0));
+  tree.forget_older_than(0.0);  // the newest sample alone
+  EXPECT_EQ(tree.coverage("odom", "lidar"), std::make_pair(30.0, 30.0));
+}
+
 TEST(TransformTree, ErrorsNameTheFrames) {
   TransformTree tree = robot();
   tree.add("world", "mocap_marker", 0.0, Pose::Identity(), true);

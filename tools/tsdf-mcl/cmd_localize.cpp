@@ -29,6 +29,7 @@
 #include "tsdf_mcl/filter/particle_filter.hpp"
 #include "tsdf_mcl/io/particle_snapshot.hpp"
 #include "tsdf_mcl/filter/scan_preprocessing.hpp"
+#include "tsdf_mcl/localizer/last_pose_file.hpp"
 #include "tsdf_mcl/sensor/sensor_evaluator.hpp"
 
 namespace tsdf_mcl::cli {
@@ -54,6 +55,10 @@ std::vector<OptionSpec> localize_options() {
        "output"},
       {"overwrite", "", "", "replace the results of an earlier run in the output folder (refused without it)",
        "output"},
+      {"last_pose_file", "FILE", "",
+       "keep the last converged pose in FILE and start from it when it holds one for this map and no --init pose "
+       "is given; a scan that does not fit there searches the whole map (off by default; the ROS nodes keep one)",
+       "input"},
       {"snapshot_every", "K", "0",
        "write the particle set to OUT/snapshots/ after initialization and every K-th scan (0 = never), for tsdf-mcl "
        "render --particles",
@@ -183,7 +188,7 @@ struct LocalizeRun {
 LocalizeRun localize_scans(const Dataset& dataset, const std::vector<std::size_t>& scans,
                            const std::vector<ImuSample>& imu, Localizer& localizer, const Snapshots& snapshots,
                            const StagedOutputFolder& output, Progress& progress, ReportWriter& report_writer,
-                           LocalizeNarrator& narrator, bool reported_init) {
+                           LocalizeNarrator& narrator, bool reported_init, LastPoseFile* last_pose) {
   LocalizeRun run;
   std::size_t imu_next = 0;
   const Stopwatch t_run;
@@ -225,7 +230,11 @@ LocalizeRun localize_scans(const Dataset& dataset, const std::vector<std::size_t
     report_writer.add(j);
 
     narrator.scan(k, idx, *record, dropped);
+    if (last_pose) {
+      if (const std::string note = last_pose->follow(localizer, *record); !note.empty()) progress.note(note);
+    }
   }
+  if (last_pose) last_pose->flush();
   run.run_s = t_run.ms() / 1000.0;
   return run;
 }
@@ -304,7 +313,7 @@ int run_localize(int argc, char** argv) {
   o.expect_positional(0, "no positional arguments");
   if (const auto config = o.maybe("config")) apply_config(o, *config);
 
-  const LocalizerOptions lo = localizer_options(o);
+  LocalizerOptions lo = localizer_options(o);
   if (!o.maybe("output")) throw Error("missing -o OUT (the output folder)");
   refuse_earlier_results(o);
   StagedOutputFolder output(o.text("output"), {"trajectory.tum", "report.json", "snapshots"});
@@ -316,8 +325,17 @@ int run_localize(int argc, char** argv) {
   const std::vector<ImuSample> imu = lo.use_imu ? dataset.imu() : std::vector<ImuSample>{};
   const TsdfMap map = load_map(o.text("map"));
   check_odometry_steps(dataset, scans, map);
-  Localizer localizer(map, lo);
   Progress progress("localize", verbosity_of(o), "scans");
+  const LocalizerOptions requested = lo;  // the narrator explains a misfit of a requested pose, not of a kept one
+  std::unique_ptr<LastPoseFile> last_pose;
+  if (const auto file = o.maybe("last_pose_file")) {
+    last_pose = std::make_unique<LastPoseFile>(*file, map);
+    std::string note, warning;
+    if (const std::optional<Pose> kept = last_pose->start(lo, &note, &warning)) lo.initial_pose = kept;
+    if (!warning.empty()) progress.note(warning);
+    if (!note.empty()) progress.note(note);
+  }
+  Localizer localizer(map, lo);
   if (!dataset.summary().empty()) progress.note(dataset.summary());
   progress.note(localizer.backend_note());
 
@@ -326,9 +344,9 @@ int run_localize(int argc, char** argv) {
   if (lo.initial_pose) report_initialization(progress, localizer, snapshots);
 
   ReportWriter report_writer(out_dir / "scans.jsonl");
-  LocalizeNarrator narrator(progress, lo, scans.size());
+  LocalizeNarrator narrator(progress, requested, scans.size());
   const LocalizeRun run = localize_scans(dataset, scans, imu, localizer, snapshots, output, progress, report_writer,
-                                         narrator, lo.initial_pose.has_value());
+                                         narrator, lo.initial_pose.has_value(), last_pose.get());
 
   write_tum(out_dir / "trajectory.tum", run.trajectory);
   const RunSummary summary = localizer.summary();

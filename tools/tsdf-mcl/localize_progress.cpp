@@ -4,14 +4,14 @@
 #include <cstdarg>
 #include <cstdio>
 
+#include "tsdf_mcl/localizer/last_pose_file.hpp"
+
 namespace tsdf_mcl::cli {
 namespace {
 
 // A state is announced once it held for this many filter updates (the flag may flicker for an update or two
 // while a look-alike is weighed; a pipe should not get a line for each flicker). Converged is announced at once.
 constexpr std::size_t kStateHoldUpdates = 3;
-// An estimate this far (m) from the initial pose after the first update did not come from there.
-constexpr double kMovedAway = 1.0;
 
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 std::string format(const char* fmt, ...) {
@@ -28,24 +28,15 @@ std::string format(const char* fmt, ...) {
 LocalizeNarrator::LocalizeNarrator(Progress& progress, const LocalizerOptions& options, std::size_t total_scans)
     : progress_(progress), options_(options), total_(total_scans) {}
 
-// After the first update from an initial pose: a poor fit of the best hypothesis, or a best hypothesis that
-// already lies elsewhere (the background search found a better place), both mean the scan does not fit there.
+// After the first update from an initial pose: the filter's own test of the fit (last_pose_file.hpp).
 void LocalizeNarrator::explain_initial_fit(std::size_t index, const FilterStep& step) {
   explained_fit_ = true;
-  const double fit = step.estimate.inlier_ratio;
-  const double needed = options_.filter.convergence.min_inlier_ratio;
-  const double moved = (step.estimate.pose.translation() - options_.initial_pose->translation()).norm();
-  if (moved > kMovedAway) {
+  const std::string misfit = initial_pose_misfit(step, options_, *options_.initial_pose);
+  if (!misfit.empty()) {
     progress_.note(
-        format("scan %zu does not fit at the given initial pose: the best hypothesis after the first "
-               "update lies %.1f m from it; the filter is searching",
-               index, moved));
-  } else if (std::isfinite(fit) && fit < needed) {
-    progress_.note(
-        format("scan %zu does not fit at the given initial pose: %.0f %% of its points lie within %.2f m "
-               "of a surface (converged needs %.0f %%); the filter is searching around it and, if the "
-               "fit stays poor, the whole map",
-               index, 100.0 * fit, static_cast<double>(options_.filter.inlier_distance), 100.0 * needed));
+        format("scan %zu does not fit at the given initial pose: %s; the filter is searching around it "
+               "and, if the fit stays poor, the whole map",
+               index, misfit.c_str()));
   }
 }
 

@@ -33,6 +33,10 @@ class TransformTree {
   // where no chain connects them.
   std::pair<double, double> coverage(const std::string& target, const std::string& source) const;
 
+  // Drops the samples of each dynamic edge that lie more than `keep` seconds before its newest one (a node's live tf
+  // stream, which tf2 keeps for 10 s), so that the tree stays small over hours.
+  void forget_older_than(double keep);
+
   // True if the frame occurs as a parent or a child.
   bool has_frame(const std::string& frame) const;
   // Every frame, sorted, for error messages.
