@@ -43,7 +43,7 @@ set(CPACK_DEBIAN_LIBRARY_PACKAGE_SECTION libdevel)
 set(CPACK_COMPONENT_LIBRARY_DESCRIPTION "tsdf-mcl static libraries, headers, CMake package and pkg-config file")
 # Static libraries: the consumer links what they were built against (tsdf_mclConfig.cmake finds these).
 set(_dev_depends "libeigen3-dev, libembree-dev, nlohmann-json3-dev, libnanoflann-dev, zlib1g-dev, libhdf5-dev,"
-                 " libcairo2-dev, pkg-config")
+                 " libcairo2-dev, pkg-config, libsqlite3-dev, libzstd-dev, liblz4-dev, libyaml-cpp-dev")
 if(TSDF_MCL_VULKAN)
   string(APPEND _dev_depends ", libvulkan-dev, libglm-dev")
 endif()
@@ -60,8 +60,9 @@ if(CMAKE_CROSSCOMPILING)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS OFF)
   # What tools/tsdf-mcl links on Debian 12 (readelf -d NEEDED), by package; its newest symbol versions are
   # GLIBC_2.35 and GLIBCXX_3.4.29 (objdump -T), which Ubuntu 22.04 (JetPack 6) also has.
-  set(CPACK_DEBIAN_CLI_PACKAGE_DEPENDS
-      "libc6 (>= 2.35), libstdc++6 (>= 11), libgcc-s1, libgomp1, libembree3-3, libcairo2, libyaml-cpp0.7, libhdf5-103-1, zlib1g")
+  string(CONCAT CPACK_DEBIAN_CLI_PACKAGE_DEPENDS
+         "libc6 (>= 2.35), libstdc++6 (>= 11), libgcc-s1, libgomp1, libembree3-3, libcairo2, libyaml-cpp0.7, libhdf5-103-1,"
+         " zlib1g, libsqlite3-0, libzstd1, liblz4-1")
   if(TSDF_MCL_VULKAN)
     string(APPEND CPACK_DEBIAN_CLI_PACKAGE_DEPENDS ", libvulkan1")
   endif()

@@ -17,13 +17,15 @@
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/imu.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 #include "tsdf_mcl/io/mesh.hpp"
 #include "tsdf_mcl/localizer/parameter_file.hpp"
 #include "tsdf_mcl/io/particle_snapshot.hpp"
 #include "tsdf_mcl/io/pointcloud2.hpp"
 #include "tsdf_mcl/io/ros1_messages.hpp"
+#include "tsdf_mcl/io/ros2_messages.hpp"
 
 namespace tsdf_mcl::fuzz {
 
@@ -208,19 +210,60 @@ inline void ros_messages(const std::uint8_t* data, std::size_t size) {
   });
 }
 
-#if TSDF_MCL_HAVE_ROSBAG
-// A whole bag file: opened as a dataset (scans on /points, odometry from tf, ground truth on /ground_truth, IMU on
-// /imu), then every scan loaded. rosbag_storage runs in a child process there; a crash in it must be an Error.
-inline void bag(const std::uint8_t* data, std::size_t size) {
+// The same ROS 2 messages in CDR (the first byte picks): sensor_msgs/PointCloud2 (then its points),
+// tf2_msgs/TFMessage, nav_msgs/Odometry, geometry_msgs/PoseStamped and PoseWithCovarianceStamped, sensor_msgs/Imu.
+inline void cdr(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return;
+  const std::uint8_t* body = data + 1;
+  const std::size_t length = size - 1;
+  expect_no_crash([&] {
+    switch (data[0] % 6) {
+      case 0: {
+        const msg::PointCloud2Message m = ros2::decode_pointcloud2_message(body, length, "fuzz");
+        PointCloud2Stats stats;
+        const PointCloud cloud = decode_pointcloud2(m.layout, body + m.data_offset, m.data_size, &stats, "fuzz");
+        if (cloud.size() + stats.dropped_non_finite != stats.points) std::abort();
+        break;
+      }
+      case 1:
+        ros2::decode_tf_message(body, length, "fuzz");
+        break;
+      case 2:
+        ros2::decode_odometry(body, length, "fuzz");
+        break;
+      case 3:
+        ros2::decode_pose_stamped(body, length, "fuzz");
+        break;
+      case 4:
+        ros2::decode_pose_with_covariance_stamped(body, length, "fuzz");
+        break;
+      default:
+        ros2::decode_imu(body, length, "fuzz");
+        break;
+    }
+  });
+}
+
+// A whole bag file opened as a dataset (scans on /points, odometry from tf, ground truth on /ground_truth, IMU on
+// /imu), then every scan loaded.
+inline void open_bag_file(const std::string& name, const std::uint8_t* data, std::size_t size) {
   expect_no_crash([&] {
     BagOptions options;
     options.points_topic = "/points";
     options.ground_truth_topic = "/ground_truth";
     options.imu_topic = "/imu";
-    const Dataset ds = Dataset::open_bag(as_file("run.bag", data, size), options);
+    const Dataset ds = Dataset::open_bag(as_file(name, data, size), options);
     for (std::size_t i = 0; i < ds.size(); ++i) ds.load_scan(i);
   });
 }
+
+// An MCAP file (rosbag2's storage since Iron): the container (chunks, compression, CRCs, a summary or none), the
+// CDR messages in it and the dataset built from them.
+inline void mcap(const std::uint8_t* data, std::size_t size) { open_bag_file("run.mcap", data, size); }
+
+#if TSDF_MCL_HAVE_ROSBAG
+// A ROS 1 bag. rosbag_storage runs in a child process there; a crash in it must be an Error.
+inline void bag(const std::uint8_t* data, std::size_t size) { open_bag_file("run.bag", data, size); }
 #endif
 
 // Name (the folder of its seeds and regressions) -> target.
@@ -239,6 +282,8 @@ inline constexpr Target kTargets[] = {
     {"cloud", cloud},
     {"pointcloud2", pointcloud2},
     {"ros_messages", ros_messages},
+    {"cdr", cdr},
+    {"mcap", mcap},
 #if TSDF_MCL_HAVE_ROSBAG
     {"bag", bag},
 #endif

@@ -17,6 +17,7 @@ packages=(
   libeigen3-dev libglm-dev nlohmann-json3-dev libnanoflann-dev
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers
   libhdf5-dev libembree-dev libyaml-cpp-dev libcairo2-dev fonts-dejavu-core libgtest-dev zlib1g-dev
+  libsqlite3-dev libzstd-dev liblz4-dev
 )
 
 if ! grep -qx arm64 <<<"$(dpkg --print-foreign-architectures)"; then

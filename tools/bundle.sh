@@ -13,14 +13,17 @@ set -euo pipefail
 build=${1:-build/ci}
 out=${2:-$build/bundle/tsdf-mcl}
 program="$build/tools/tsdf-mcl"
-[ -x "$program" ] || { echo "bundle.sh: no $program (build first: cmake --build --preset ci)" >&2; exit 1; }
+bench="$build/tools/tsdf-mcl-bench"  # what `tsdf-mcl bench` runs, from beside the program
+for f in "$program" "$bench"; do
+  [ -x "$f" ] || { echo "bundle.sh: no $f (build first: cmake --build --preset ci)" >&2; exit 1; }
+done
 rm -rf "$out"
 mkdir -p "$out/bin" "$out/lib"
-cp "$program" "$out/bin/tsdf-mcl"
+cp "$program" "$bench" "$out/bin/"
 
 # glibc's own libraries and the dynamic loader stay the machine's.
 system='^(linux-vdso|linux-gate|ld-linux[^ ]*|libc|libm|libdl|libpthread|librt|libresolv|libutil|libanl|libmvec)\.so'
-ldd "$program" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | while read -r name path; do
+ldd "$program" "$bench" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u | while read -r name path; do
   [[ "$name" =~ $system ]] && continue
   cp -L "$path" "$out/lib/$name"
 done
@@ -89,5 +92,5 @@ fi
 SCRIPT
 chmod +x "$out/tsdf-mcl" "$out/run_bench.sh"
 
-glibc=$(objdump -T "$out/bin/tsdf-mcl" "$out"/lib/*.so* 2>/dev/null | grep -o 'GLIBC_[0-9.]*' | sort -uV | tail -n 1)
+glibc=$(objdump -T "$out"/bin/* "$out"/lib/*.so* 2>/dev/null | grep -o 'GLIBC_[0-9.]*' | sort -uV | tail -n 1)
 echo "bundle.sh: $out ($(du -sh "$out" | cut -f1), $(ls "$out/lib" | wc -l) libraries; needs ${glibc:-glibc} or newer)"

@@ -19,7 +19,8 @@ import sys
 LINKS = {
     "core": [],
     "io": ["core"],
-    "map": ["core", "io"],
+    "map": ["core"],
+    "mapping": ["map", "io"],
     "sensor": ["map"],
     "cpu": ["sensor"],
     "gpu": ["sensor"],
@@ -28,7 +29,7 @@ LINKS = {
     "localizer": ["filter", "io", "backends"],
     "eval": ["io"],
     "sim": ["io"],
-    "render": ["map"],
+    "render": ["map", "io"],
 }
 # Folders outside the library: their files may include any public header, but nothing under src/.
 FRONTENDS = ["tools", "tests", "bench", "fuzz", "ros", "python", "examples"]

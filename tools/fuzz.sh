@@ -3,8 +3,8 @@
 #
 #   bash tools/fuzz.sh [SECONDS] [NAME...]     default: 20 s each, every harness (CI); e.g. 600 map_file
 #
-# Names: map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages bag (fuzz/fuzz_targets.hpp;
-# bag where the build has ROS bag support). The corpus each run grows is
+# Names: map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages cdr mcap bag
+# (fuzz/fuzz_targets.hpp; bag where the build has ROS 1 bag support). The corpus each run grows is
 # kept in build/asan/fuzz-corpus/NAME (so longer runs resume); inputs that crash, hang (> 20 s) or exceed 2.5 GB land
 # in build/asan/fuzz-findings/NAME/ and the script fails. Copy each into fuzz/regressions/NAME/ once fixed: the test
 # suite then runs it in every build (FuzzInputs).
@@ -14,7 +14,7 @@ seconds=${1:-20}
 shift || true
 names=("$@")
 if [ ${#names[@]} -eq 0 ]; then
-  names=(map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages)
+  names=(map_file h5_import mesh scan text config snapshot cloud pointcloud2 ros_messages cdr mcap)
   [ -f /usr/include/rosbag/bag.h ] && names+=(bag)
 fi
 
@@ -24,7 +24,7 @@ export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 status=0
 
 # Whether the crash in a log lies inside libhdf5: every frame above our code is libhdf5's (or libc's memcpy and
-# ASan's interceptor under it), entered from the import (src/map/h5_import.cpp: import_reference_h5 or a helper of
+# ASan's interceptor under it), entered from the import (src/mapping/h5_import.cpp: import_reference_h5 or a helper of
 # it, such as read_chunk's H5Dread, where a fuzzed chunk overflowed a buffer libhdf5 had allocated). libhdf5 trusts
 # corrupt files that far; the program runs the import in a child process (tools/tsdf-mcl/cmd_build_map.cpp), so such
 # a file ends in one error line there (CliMap.BuildMapRejectsBadInput holds one,
@@ -34,7 +34,7 @@ inside_libhdf5() {
        /ERROR: AddressSanitizer/ {on = 1; next}
        !on || !/^ +#[0-9]+ / || /__interceptor_|__asan_|sysdeps\/|libc\.so/ {next}
        /libhdf5/ {inside = 1; next}
-       {r = !(inside && /import_reference_h5|src\/map\/h5_import\.cpp/); exit}
+       {r = !(inside && /import_reference_h5|src\/mapping\/h5_import\.cpp/); exit}
        END {exit r}' "$1"
 }
 

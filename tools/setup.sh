@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package tsdf-mcl needs to build, test and run (as root or through sudo); clang and its
-# runtimes (ASan, UBSan, libFuzzer, OpenMP) serve the sanitizer run and the fuzzers; Debian's ROS 1 rosbag_storage
-# and message headers, ROS bags (docs/bags.md; the build leaves bag support out where they are missing); roscpp,
+# runtimes (ASan, UBSan, libFuzzer, OpenMP) serve the sanitizer run and the fuzzers; SQLite3, zstd and lz4, ROS 2
+# bags (rosbag2, docs/bags.md); Debian's ROS 1 rosbag_storage and message headers, ROS 1 bags (the build leaves
+# them out where they are missing); roscpp,
 # tf2_ros, rosmaster, roslaunch and rosbag, the ROS 1 node and its test (docs/ros.md; left out where missing);
 # pybind11, numpy, pytest and matplotlib, the Python module, its tests and examples (docs/python.md); clang-format
 # and clang-tidy, the code style checks. --arm64 also installs the aarch64 cross compiler and qemu-user and unpacks
@@ -17,6 +18,7 @@ packages=(
   glslc glslang-tools spirv-tools
   libeigen3-dev libglm-dev libgtest-dev
   libhdf5-dev libembree-dev nlohmann-json3-dev libyaml-cpp-dev libcairo2-dev fonts-dejavu-core libnanoflann-dev zlib1g-dev
+  libsqlite3-dev libzstd-dev liblz4-dev
   clang-14 libclang-rt-14-dev libomp-14-dev clang-format-14 clang-tidy-14
   librosbag-storage-dev libroscpp-core-dev libstd-msgs-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
   libtf2-msgs-dev

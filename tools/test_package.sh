@@ -32,7 +32,9 @@ fi
 # 1. contents (listed to files first: grep -q closing a pipe would fail dpkg-deb under pipefail)
 dpkg-deb -c "$cli" >"$work/cli.list"
 dpkg-deb -c "$dev" >"$work/dev.list"
-grep -q '\./usr/bin/tsdf-mcl$' "$work/cli.list" || fail "$cli lacks usr/bin/tsdf-mcl"
+for f in tsdf-mcl tsdf-mcl-bench; do
+  grep -q "\./usr/bin/$f\$" "$work/cli.list" || fail "$cli lacks usr/bin/$f"
+done
 for f in 'include/tsdf_mcl/cpu/cpu_evaluator.hpp' 'cmake/tsdf_mcl/tsdf_mclConfig.cmake' 'libtsdf_mcl_core.a' \
   'pkgconfig/tsdf_mcl.pc'; do
   grep -q "$f\$" "$work/dev.list" || fail "$dev lacks $f"
@@ -81,6 +83,7 @@ check_depends() {  # deb, binary path inside it
     { cat "$work/apt-$(basename "$deb").log" >&2; fail "apt cannot satisfy the Depends of $(basename "$deb")"; }
 }
 check_depends "$cli" /usr/bin/tsdf-mcl
+check_depends "$cli" /usr/bin/tsdf-mcl-bench
 [ -z "$ros" ] || check_depends "$ros" "$ros_node"
 apt-get install --simulate -qq "$dev" >"$work/apt-dev.log" 2>&1 ||
   { cat "$work/apt-dev.log" >&2; fail "apt cannot satisfy the Depends of $(basename "$dev")"; }
@@ -100,4 +103,8 @@ init=$(awk 'NR == 1 {printf "%s,%s,%s,0,0,%.5f", $4, $8, $12, atan2($5, $1)}' ro
 fraction=$(sed -n 's/^  "localized_fraction": \([0-9.]*\),*$/\1/p' evaluate.json)
 [ -n "$fraction" ] || { cat evaluate.json >&2; fail "evaluate printed no localized_fraction"; }
 awk -v f="$fraction" 'BEGIN {exit !(f >= 0.9)}' || fail "the packaged program localized only $fraction of the scans"
+# bench runs the packaged benchmark program beside tsdf-mcl.
+"$bin" bench --map office.tsdf --dataset route --particles 100 --points 32 --backend cpu --repetitions 1 \
+  --warmup 0 >bench.json 2>bench.log || { cat bench.log >&2; fail "bench failed"; }
+grep -q '"backend":"cpu"' bench.json || { cat bench.json >&2; fail "bench printed no measurement"; }
 echo "test_package.sh: $(cd "$work/pkgs" && ls ./*.deb | tr '\n' ' ')OK (localized fraction $fraction)"

@@ -212,7 +212,7 @@ void register_dataset_classes(py::module_& m) {
       .def_property_readonly("summary", [](const PyDataset& d) { return d.dataset->summary(); });
 }
 
-// A ROS 1 bag as a dataset; the GIL is released while the bag is indexed.
+// A bag (ROS 1, or a rosbag2 folder, .db3 or .mcap) as a dataset; the GIL is released while the bag is indexed.
 PyDataset read_bag(const std::string& path, const std::string& points_topic, const std::string& odom_frame,
                    const std::string& base_frame, const std::string& odom_topic, const std::string& ground_truth_topic,
                    const std::string& imu_topic, std::size_t start, std::size_t stride, std::size_t count) {
@@ -256,9 +256,9 @@ void register_dataset(py::module_& m) {
   m.def("read_bag", &read_bag, py::arg("path"), py::arg("points_topic"), py::arg("odom_frame") = "odom",
         py::arg("base_frame") = "base_link", py::arg("odom_topic") = "", py::arg("ground_truth_topic") = "",
         py::arg("imu_topic") = "", py::arg("start") = 0, py::arg("stride") = 1, py::arg("count") = 0,
-        "A ROS 1 bag as a dataset (docs/bags.md): the PointCloud2 scans of points_topic, odometry from tf or "
-        "odom_topic, ground truth and IMU from their topics.");
-  m.attr("bag_support") = Dataset::bag_support();
+        "A bag as a dataset (docs/bags.md): ROS 1, or ROS 2 (a rosbag2 folder, .db3 or .mcap file); the PointCloud2 "
+        "scans of points_topic, odometry from tf or odom_topic, ground truth and IMU from their topics.");
+  m.attr("ros1_bag_support") = Dataset::ros1_bag_support();
 
   m.def("evaluate", &evaluate, py::arg("times"), py::arg("poses"), py::arg("ground_truth"),
         py::arg("converged") = py::none(), py::arg("max_translation_error") = 0.3,

@@ -13,7 +13,7 @@
 #include "numpy_io.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 #include "tsdf_mcl/io/mesh.hpp"
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tsdf_mcl/io/pointcloud2.hpp"
+#include "tsdf_mcl/io/ros_message_fields.hpp"
 
 namespace tsdf_mcl::ros_node {
 
@@ -19,14 +20,7 @@ Pose pose_from_msg(const geometry_msgs::Pose& msg) {
 
 geometry_msgs::Pose msg_from_pose(const Pose& pose) {
   geometry_msgs::Pose msg;
-  const Eigen::Quaterniond q(pose.rotation());
-  msg.position.x = pose.translation().x();
-  msg.position.y = pose.translation().y();
-  msg.position.z = pose.translation().z();
-  msg.orientation.x = q.x();
-  msg.orientation.y = q.y();
-  msg.orientation.z = q.z();
-  msg.orientation.w = q.w();
+  fill_pose_fields(pose, msg.position, msg.orientation);
   return msg;
 }
 
@@ -40,12 +34,8 @@ Pose pose_from_msg(const geometry_msgs::Transform& msg) {
 }
 
 geometry_msgs::Transform transform_from_pose(const Pose& pose) {
-  const geometry_msgs::Pose p = msg_from_pose(pose);
   geometry_msgs::Transform t;
-  t.translation.x = p.position.x;
-  t.translation.y = p.position.y;
-  t.translation.z = p.position.z;
-  t.rotation = p.orientation;
+  fill_pose_fields(pose, t.translation, t.rotation);
   return t;
 }
 
@@ -77,23 +67,8 @@ PointCloud cloud_from_msg(const sensor_msgs::PointCloud2& msg, const std::string
 }
 
 sensor_msgs::PointCloud2 msg_from_cloud(const PointCloud& cloud) {
-  const EncodedPointCloud2 encoded = encode_pointcloud2(cloud);
   sensor_msgs::PointCloud2 msg;
-  msg.height = encoded.layout.height;
-  msg.width = encoded.layout.width;
-  msg.is_bigendian = encoded.layout.is_bigendian;
-  msg.point_step = encoded.layout.point_step;
-  msg.row_step = encoded.layout.row_step;
-  msg.is_dense = encoded.layout.is_dense;
-  for (const PointField& f : encoded.layout.fields) {
-    sensor_msgs::PointField field;
-    field.name = f.name;
-    field.offset = f.offset;
-    field.datatype = f.datatype;
-    field.count = f.count;
-    msg.fields.push_back(field);
-  }
-  msg.data = encoded.data;
+  fill_pointcloud2_message(encode_pointcloud2(cloud), msg);
   return msg;
 }
 

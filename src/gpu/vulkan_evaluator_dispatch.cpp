@@ -120,8 +120,8 @@ void VulkanEvaluator::record_weighting(const gpu::ComputePipeline& endpoint, con
   ctx_->begin_label(cmd_, "endpoint_weight");
   if (statistics_) vkCmdBeginQuery(cmd_, statistics_, 0, 0);
   vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.pipeline());
-  vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_], 0,
-                          nullptr);
+  vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, endpoint.layout(), 0, 1, &endpoint_sets_[active_set()],
+                          0, nullptr);
   vkCmdPushConstants(cmd_, endpoint.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ep), &ep);
   vkCmdDispatch(cmd_, endpoint_groups(n), 1, 1);
   if (statistics_) vkCmdEndQuery(cmd_, statistics_, 0);
@@ -147,7 +147,7 @@ int VulkanEvaluator::record_reduction(std::size_t n, const EndpointModel& model,
   int out = 0;  // records_[out] receives this level's records
   for (std::uint32_t level = 0;; ++level) {
     const std::uint32_t groups = groups_for(count, kReducePerGroup);
-    const VkDescriptorSet set = reduce_sets_[active_][level == 0 ? 0 : (out == 1 ? 1 : 2)];
+    const VkDescriptorSet set = reduce_sets_[active_set()][level == 0 ? 0 : (out == 1 ? 1 : 2)];
     rp.count = static_cast<std::uint32_t>(count);
     rp.level = level;
     vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, reduce_pipeline_->layout(), 0, 1, &set, 0, nullptr);
@@ -173,14 +173,14 @@ void VulkanEvaluator::finish_recording() {
 }
 
 void VulkanEvaluator::submit_and_wait(int out) {
-  particle_sets_[active_].flush();
+  particle_sets_[active_set()].flush();
   VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &cmd_;
   gpu::check(vkResetFences(ctx_->device(), 1, &fence_), "vkResetFences");
   gpu::check(vkQueueSubmit(ctx_->queue(), 1, &submit, fence_), "vkQueueSubmit");
   gpu::check(vkWaitForFences(ctx_->device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-  particle_sets_[active_].invalidate();
+  particle_sets_[active_set()].invalidate();
   records_[out].invalidate();
 }
 

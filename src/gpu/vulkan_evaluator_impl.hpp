@@ -46,7 +46,7 @@ inline std::uint32_t groups_for(std::size_t n, std::uint32_t per_group) {
   return static_cast<std::uint32_t>((n + per_group - 1) / per_group);
 }
 
-class VulkanEvaluator final : public SensorEvaluator {
+class VulkanEvaluator final : public DoubleBufferedEvaluator {
  public:
   VulkanEvaluator(const TsdfMap& map, const EvaluatorOptions& options);
   ~VulkanEvaluator() override;
@@ -57,9 +57,6 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::string weight_layout() const override { return subgroup_layout_ ? "subgroup" : "invocation"; }
   bool discrete_gpu() const override { return ctx_->caps().type == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU; }
   void reserve(std::size_t particles, std::size_t points) override;
-  ParticleArrays particles() override { return view(active_); }
-  ParticleArrays spare_particles() override { return view(1 - active_); }
-  void swap_particles() override { active_ = 1 - active_; }
   void set_points(const std::vector<Eigen::Vector3f>& points) override;
   WeightSummary evaluate(std::size_t particle_count, const EndpointModel& model,
                          const Eigen::Quaternionf& reference_rotation) override;
@@ -68,7 +65,7 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::vector<ShaderStatistics> shader_statistics() const override;
 
  private:
-  ParticleArrays view(int set);
+  ParticleArrays view(int set) override;
   const gpu::ComputePipeline& endpoint_pipeline(const EndpointModel& model, bool uniform_points);
   std::uint32_t endpoint_groups(std::size_t n) const;
   void grow_particles(std::size_t capacity);
@@ -123,7 +120,6 @@ class VulkanEvaluator final : public SensorEvaluator {
   std::uint32_t chunk_shift_ = 0;
   gpu::Buffer particle_sets_[2];
   std::size_t capacity_ = 0;
-  int active_ = 0;
   gpu::Buffer points_;          // read by the shader
   gpu::Buffer points_staging_;  // host-written copy where points_ is not host-visible (discrete GPUs)
   std::size_t point_capacity_ = 0;

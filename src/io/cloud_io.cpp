@@ -15,9 +15,9 @@
 #include "tsdf_mcl/core/little_endian.hpp"
 #include "tsdf_mcl/io/pcd_format.hpp"
 #include "ply_format.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {

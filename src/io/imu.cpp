@@ -6,7 +6,7 @@
 #include <string>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {

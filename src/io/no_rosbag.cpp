@@ -1,34 +1,25 @@
 // Stands in for src/io/rosbag/ where the library is built without rosbag_storage (CMake: TSDF_MCL_HAVE_ROSBAG off):
-// every bag entry point says so in one sentence.
-#include "tsdf_mcl/io/bag_writer.hpp"
-#include "tsdf_mcl/io/dataset.hpp"
+// ROS 1 bags are refused in one sentence; rosbag2 recordings (src/io/rosbag2/) are read and written all the same.
+#include "bag/bag_formats.hpp"
 #include "tsdf_mcl/core/error.hpp"
 
-namespace tsdf_mcl {
+namespace tsdf_mcl::bag_io {
 namespace {
 
-[[noreturn]] void no_bag_support() {
-  throw Error("built without ROS bag support: install librosbag-storage-dev (tools/setup.sh) and rebuild");
+[[noreturn]] void no_ros1_support(const std::filesystem::path& file) {
+  throw Error(file.string() +
+              " is a ROS 1 bag: built without ROS 1 bag support; install librosbag-storage-dev (tools/setup.sh) and "
+              "rebuild");
 }
 
 }  // namespace
 
-bool Dataset::bag_support() { return false; }
+bool ros1_bag_support() { return false; }
 
-Dataset Dataset::open_bag(const std::filesystem::path&, const BagOptions&) { no_bag_support(); }
+OpenedBag open_ros1_bag(const std::filesystem::path& file, const BagOptions&) { no_ros1_support(file); }
 
-struct BagWriter::Impl {};
-
-// NOLINTNEXTLINE(performance-unnecessary-value-param): the real constructor's signature, which moves it
-BagWriter::BagWriter(const std::filesystem::path&, BagWriterOptions) { no_bag_support(); }
-void BagWriter::set_base_T_sensor(const Pose&) { no_bag_support(); }
-BagWriter::~BagWriter() = default;
-void BagWriter::add_scan(double, const PointCloud&, const std::vector<std::uint16_t>*, const std::optional<Pose>&,
-                         const std::optional<Pose>&) {
-  no_bag_support();
+std::unique_ptr<BagSink> make_ros1_sink(const std::filesystem::path& file, const BagWriterOptions&) {
+  no_ros1_support(file);
 }
-void BagWriter::add_imu(double, const Eigen::Vector3d&, const Eigen::Vector3d&) { no_bag_support(); }
-std::size_t BagWriter::scans() const { return 0; }
-void BagWriter::close() { no_bag_support(); }
 
-}  // namespace tsdf_mcl
+}  // namespace tsdf_mcl::bag_io

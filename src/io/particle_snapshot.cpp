@@ -5,9 +5,9 @@
 #include <string>
 
 #include "tsdf_mcl/core/little_endian.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 
 namespace tsdf_mcl {
 namespace fs = std::filesystem;

@@ -1,8 +1,5 @@
 #include "tsdf_mcl/io/ros1_messages.hpp"
 
-#include <cmath>
-#include <cstring>
-
 #include "tsdf_mcl/core/little_endian.hpp"
 #include "tsdf_mcl/core/error.hpp"
 
@@ -31,11 +28,7 @@ class Reader {
     return v;
   }
   std::uint32_t u32(const char* item) { return value<std::uint32_t>(item); }
-  double f64(const char* item) {
-    const double v = value<double>(item);
-    if (!std::isfinite(v)) throw Error(what_ + ": " + item + " is not a finite number");
-    return v;
-  }
+  double f64(const char* item) { return msg::finite(value<double>(item), what_, item); }
   std::string string(const char* item) {
     const std::uint32_t length = u32(item);
     need(length, item);
@@ -84,24 +77,10 @@ Eigen::Vector3d read_vector3(Reader& r, const char* item) {
   return {x, y, z};
 }
 
-// x y z w, of unit length within 1e-2 (then normalized): zero quaternions, the "unknown" of many drivers, are errors.
-Eigen::Quaterniond read_quaternion(Reader& r, const char* item) {
-  const double x = r.f64(item), y = r.f64(item), z = r.f64(item), w = r.f64(item);
-  Eigen::Quaterniond q(w, x, y, z);
-  if (std::abs(q.norm() - 1.0) > 1e-2) {
-    throw Error(r.what() + ": " + item + " (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
-                std::to_string(z) + ", " + std::to_string(w) + ") is not a unit quaternion");
-  }
-  return q.normalized();
-}
-
 Pose read_pose(Reader& r, const char* position, const char* orientation) {
   const Eigen::Vector3d t = read_vector3(r, position);
-  const Eigen::Quaterniond q = read_quaternion(r, orientation);
-  Pose p = Pose::Identity();
-  p.linear() = q.toRotationMatrix();
-  p.translation() = t;
-  return p;
+  const double x = r.f64(orientation), y = r.f64(orientation), z = r.f64(orientation), w = r.f64(orientation);
+  return msg::pose_of(t, msg::unit_quaternion(x, y, z, w, r.what(), orientation));
 }
 
 constexpr std::size_t kHeaderMinBytes = 16;  // seq, stamp, an empty frame_id
@@ -180,6 +159,16 @@ PoseMessage decode_pose_stamped(const std::uint8_t* data, std::size_t size, cons
   return p;
 }
 
+PoseMessage decode_pose_with_covariance_stamped(const std::uint8_t* data, std::size_t size, const std::string& what) {
+  Reader r(data, size, what);
+  PoseMessage p;
+  p.header = read_header(r);
+  p.pose = read_pose(r, "pose.pose.position", "pose.pose.orientation");
+  r.skip(36 * 8, "pose.covariance");  // read past, not checked
+  r.expect_end(kPoseWithCovarianceStamped.name);
+  return p;
+}
+
 Imu decode_imu(const std::uint8_t* data, std::size_t size, const std::string& what) {
   Reader r(data, size, what);
   Imu m;
@@ -208,7 +197,7 @@ std::vector<std::uint8_t> encode_pointcloud2_message(const Header& header, const
                                                      const std::vector<std::uint8_t>& data) {
   std::string out;
   append_u32(out, header.seq);
-  append_u32(out, header.sec);
+  append_u32(out, static_cast<std::uint32_t>(header.sec));
   append_u32(out, header.nsec);
   append_string(out, header.frame_id);
   append_u32(out, layout.height);

@@ -7,7 +7,7 @@
 #include <set>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/ros1_messages.hpp"
+#include "tsdf_mcl/io/bag_messages.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -18,7 +18,7 @@ std::string seconds(double t) {
   return buf;
 }
 
-std::string in_quotes(const std::string& frame) { return "'" + ros1::printable_name(frame) + "'"; }
+using msg::quoted_name;
 
 }  // namespace
 
@@ -32,9 +32,9 @@ Pose interpolate_pose(const Pose& a, const Pose& b, double f) {
 
 void TransformTree::add(const std::string& parent, const std::string& child, double time, const Pose& parent_T_child,
                         bool is_static) {
-  if (parent == child) throw Error("tf transform from frame " + in_quotes(child) + " to itself");
+  if (parent == child) throw Error("tf transform from frame " + quoted_name(child) + " to itself");
   if (parent.empty() || child.empty())
-    throw Error("tf transform with an empty frame name (" + in_quotes(parent) + " -> " + in_quotes(child) + ")");
+    throw Error("tf transform with an empty frame name (" + quoted_name(parent) + " -> " + quoted_name(child) + ")");
   // A corrupt or absurd transform (1e300 m) would turn every pose downstream into NaN: one error here instead.
   constexpr double kMaxTranslation = 1e6;  // m: no map spans 1000 km
   if (!parent_T_child.matrix().allFinite() || parent_T_child.translation().cwiseAbs().maxCoeff() > kMaxTranslation) {
@@ -42,7 +42,7 @@ void TransformTree::add(const std::string& parent, const std::string& child, dou
     char buf[160];
     std::snprintf(buf, sizeof(buf), "translation (%g, %g, %g) m is not finite or beyond %g m", t.x(), t.y(), t.z(),
                   kMaxTranslation);
-    throw Error("tf " + in_quotes(parent) + " -> " + in_quotes(child) + ": " + buf);
+    throw Error("tf " + quoted_name(parent) + " -> " + quoted_name(child) + ": " + buf);
   }
   auto [it, inserted] = edges_.try_emplace(child);
   Edge& e = it->second;
@@ -50,10 +50,10 @@ void TransformTree::add(const std::string& parent, const std::string& child, dou
     e.parent = parent;
     e.is_static = is_static;
   } else if (e.parent != parent) {
-    throw Error("tf frame " + in_quotes(child) + " has two parents, " + in_quotes(e.parent) + " and " +
-                in_quotes(parent));
+    throw Error("tf frame " + quoted_name(child) + " has two parents, " + quoted_name(e.parent) + " and " +
+                quoted_name(parent));
   } else if (e.is_static != is_static) {
-    throw Error("tf " + in_quotes(parent) + " -> " + in_quotes(child) +
+    throw Error("tf " + quoted_name(parent) + " -> " + quoted_name(child) +
                 " is both static (/tf_static) and dynamic (/tf)");
   }
   if (is_static) {
@@ -87,7 +87,7 @@ std::vector<std::string> TransformTree::frames() const {
 std::vector<std::string> TransformTree::chain(const std::string& frame) const {
   std::vector<std::string> out{frame};
   for (auto it = edges_.find(frame); it != edges_.end(); it = edges_.find(out.back())) {
-    if (out.size() > edges_.size()) throw Error("tf frames form a loop through " + in_quotes(frame));
+    if (out.size() > edges_.size()) throw Error("tf frames form a loop through " + quoted_name(frame));
     out.push_back(it->second.parent);
   }
   return out;
@@ -98,10 +98,12 @@ std::string TransformTree::common_ancestor(const std::string& target, const std:
   for (const std::string& f : up_source) {
     if (std::find(up_target.begin(), up_target.end(), f) != up_target.end()) return f;
   }
-  auto known = [&](const std::string& f) { return has_frame(f) ? "" : " (" + in_quotes(f) + " is in no tf message)"; };
+  auto known = [&](const std::string& f) {
+    return has_frame(f) ? "" : " (" + quoted_name(f) + " is in no tf message)";
+  };
   std::string frames_list;
-  for (const std::string& f : frames()) frames_list += (frames_list.empty() ? "" : ", ") + ros1::printable_name(f);
-  throw Error("no tf connects " + in_quotes(target) + " and " + in_quotes(source) + known(target) + known(source) +
+  for (const std::string& f : frames()) frames_list += (frames_list.empty() ? "" : ", ") + msg::printable_name(f);
+  throw Error("no tf connects " + quoted_name(target) + " and " + quoted_name(source) + known(target) + known(source) +
               "; the tf frames are: " + (frames_list.empty() ? "none" : frames_list));
 }
 
@@ -111,7 +113,7 @@ Pose TransformTree::at(const std::string& child, const Edge& edge, double time) 
   // Stamps are nanoseconds in a bag: a query within a nanosecond of the ends is at the end.
   constexpr double kSlack = 1e-9;
   if (time < s.front().first - kSlack || time > s.back().first + kSlack) {
-    throw Error("tf " + in_quotes(edge.parent) + " -> " + in_quotes(child) + " is known from " +
+    throw Error("tf " + quoted_name(edge.parent) + " -> " + quoted_name(child) + " is known from " +
                 seconds(s.front().first) + " to " + seconds(s.back().first) + " s, not at " + seconds(time) +
                 " s (tf is not extrapolated)");
   }

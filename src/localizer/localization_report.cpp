@@ -3,7 +3,7 @@
 #include <cmath>
 #include <string>
 
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
 
 namespace tsdf_mcl {

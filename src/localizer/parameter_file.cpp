@@ -7,7 +7,7 @@
 #include <cstdlib>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/limits.hpp"
 
 namespace tsdf_mcl {

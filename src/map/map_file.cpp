@@ -20,8 +20,8 @@
 #include <zlib.h>
 
 #include "tsdf_mcl/core/little_endian.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 

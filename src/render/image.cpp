@@ -15,9 +15,9 @@
 #include "canvas.hpp"
 #include "clip.hpp"
 #include "tsdf_mcl/core/checked_math.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 
 namespace tsdf_mcl {
 

@@ -6,8 +6,8 @@
 
 #include "canvas.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
-#include "tsdf_mcl/io/input_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
+#include "tsdf_mcl/core/input_file.hpp"
 #include "tsdf_mcl/render/image.hpp"
 
 namespace tsdf_mcl {

@@ -13,7 +13,7 @@
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/backends/make_evaluator.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
 #include "tsdf_mcl/filter/scan_preprocessing.hpp"
 

@@ -281,19 +281,5 @@ TEST(VulkanEvaluator, BadInputIsAnError) {
   EXPECT_THROW(make_evaluator(TsdfMap(), vulkan_options()), Error);
 }
 
-TEST(EvaluatorFactory, AutoSaysWhatItPickedAndCpuIsAlwaysThere) {
-  const TsdfMap map = test::make_room_map();
-  std::string note;
-  EvaluatorOptions o;
-  o.backend = Backend::kCpu;
-  EXPECT_EQ(make_evaluator(map, o, &note)->backend(), "cpu");
-  EXPECT_NE(note.find("cpu"), std::string::npos);
-  o.backend = Backend::kAuto;
-  o.on_validation_message = [](const std::string& m) { ADD_FAILURE() << m; };
-  const auto e = make_evaluator(map, o, &note);
-  EXPECT_NE(note.find(e->backend()), std::string::npos) << note;
-  EXPECT_THROW(parse_backend("cuda"), Error);
-}
-
 }  // namespace
 }  // namespace tsdf_mcl

@@ -24,13 +24,21 @@ cmake -S "$here/consumer" -B "$scratch/cmake" -G Ninja -DCMAKE_BUILD_TYPE=Releas
 cmake --build "$scratch/cmake" >/dev/null
 "$scratch/cmake/consumer"
 
-# Components find only their own dependencies: map, cpu and filter build with Vulkan, glm, Embree and pkg-config
-# (Cairo) made unfindable; asking for gpu the same way fails, naming Vulkan.
+# Components find only their own dependencies: map, sensor, cpu and filter build with Vulkan, glm, Embree,
+# pkg-config (Cairo) and the I/O packages (nanoflann, rosbag_storage, HDF5) made unfindable, and their link line
+# names no I/O library nor the io and mapping layers; asking for gpu the same way fails, naming Vulkan.
 no_gpu_packages=(-DCMAKE_DISABLE_FIND_PACKAGE_Vulkan=TRUE -DCMAKE_DISABLE_FIND_PACKAGE_glm=TRUE
                  -DCMAKE_DISABLE_FIND_PACKAGE_embree=TRUE -DCMAKE_DISABLE_FIND_PACKAGE_PkgConfig=TRUE)
+no_io_packages=(-DCMAKE_DISABLE_FIND_PACKAGE_nanoflann=TRUE -DCMAKE_DISABLE_FIND_PACKAGE_RosbagStorage=TRUE
+                -DCMAKE_DISABLE_FIND_PACKAGE_HDF5=TRUE)
 cmake -S "$here/consumer" -B "$scratch/cpu_only" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix" \
-  -DCONSUMER_CPU_ONLY=ON "${no_gpu_packages[@]}" >"$scratch/cpu_only.log" 2>&1 ||
-  { cat "$scratch/cpu_only.log" >&2; echo "check_install: COMPONENTS map cpu filter needs more than their own" >&2; exit 1; }
+  -DCONSUMER_CPU_ONLY=ON "${no_gpu_packages[@]}" "${no_io_packages[@]}" >"$scratch/cpu_only.log" 2>&1 ||
+  { cat "$scratch/cpu_only.log" >&2; echo "check_install: COMPONENTS map sensor cpu filter needs more than their own" >&2; exit 1; }
+link=$(ninja -C "$scratch/cpu_only" -t commands consumer | tail -n 1)
+grep -q 'libtsdf_mcl_map\.a' <<<"$link" || { echo "check_install: no link line for the consumer: $link" >&2; exit 1; }
+if grep -Eo 'hdf5|nanoflann|rosbag|roscpp|tsdf_mcl_io|tsdf_mcl_mapping' <<<"$link" | sort -u | grep .; then
+  echo "check_install: COMPONENTS map sensor cpu filter links the I/O above (link line: $link)" >&2; exit 1
+fi
 cmake --build "$scratch/cpu_only" >/dev/null
 "$scratch/cpu_only/consumer"
 mkdir -p "$scratch/gpu"

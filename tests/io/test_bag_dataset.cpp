@@ -5,6 +5,7 @@
 #if TSDF_MCL_HAVE_ROSBAG
 
 #include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/Imu.h>
@@ -17,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "error_text.hpp"
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
@@ -101,14 +103,7 @@ void expect_near(const Pose& a, const Pose& b, double tolerance = 1e-9) {
   EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), tolerance) << a.matrix() << "\n" << b.matrix();
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 // ---------------------------------------------------------------------- the decoders against roscpp
 
@@ -159,6 +154,12 @@ TEST(BagMessages, DecodersAgreeWithRoscpp) {
   ps.pose = pose_of(p);
   const std::vector<std::uint8_t> ps_bytes = serialize(ps);
   expect_near(ros1::decode_pose_stamped(ps_bytes.data(), ps_bytes.size(), "ps").pose, p, 1e-12);
+  geometry_msgs::PoseWithCovarianceStamped pwcs;
+  pwcs.header.frame_id = "map";
+  pwcs.pose.pose = pose_of(p);
+  pwcs.pose.covariance[7] = 0.25;
+  const std::vector<std::uint8_t> pwcs_bytes = serialize(pwcs);
+  expect_near(ros1::decode_pose_with_covariance_stamped(pwcs_bytes.data(), pwcs_bytes.size(), "pwcs").pose, p, 1e-12);
 
   sensor_msgs::Imu imu;
   imu.header.frame_id = "imu_link";
@@ -174,6 +175,8 @@ TEST(BagMessages, DecodersAgreeWithRoscpp) {
   EXPECT_STREQ(ros1::kTfMessage.md5, ros::message_traits::MD5Sum<tf2_msgs::TFMessage>::value());
   EXPECT_STREQ(ros1::kOdometry.md5, ros::message_traits::MD5Sum<nav_msgs::Odometry>::value());
   EXPECT_STREQ(ros1::kPoseStamped.md5, ros::message_traits::MD5Sum<geometry_msgs::PoseStamped>::value());
+  EXPECT_STREQ(ros1::kPoseWithCovarianceStamped.md5,
+               ros::message_traits::MD5Sum<geometry_msgs::PoseWithCovarianceStamped>::value());
   EXPECT_STREQ(ros1::kImu.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value());
 
   // A zero quaternion (an unset pose) is not a rotation.
@@ -397,16 +400,16 @@ TEST(BagDataset, ClearErrors) {
             std::string::npos)
       << open(disordered.file, robot_options());
 
-  // Not bags.
+  // Not bags; rosbag2 files that are not what they seem.
   test::write_bytes(dir / "text.bag", "hello, I am not a bag\n");
-  EXPECT_NE(open(dir / "text.bag", o).find("is not a ROS 1 bag"), std::string::npos);
+  EXPECT_NE(open(dir / "text.bag", o).find("is not a bag: neither a ROS 1 bag"), std::string::npos);
   test::write_bytes(dir / "empty.bag", "");
-  EXPECT_NE(open(dir / "empty.bag", o).find("is not a ROS 1 bag"), std::string::npos);
+  EXPECT_NE(open(dir / "empty.bag", o).find("is not a bag"), std::string::npos);
   test::write_bytes(dir / "ros2.db3", std::string("SQLite format 3\0", 16) + std::string(100, 'x'));
-  EXPECT_NE(open(dir / "ros2.db3", o).find("is a ROS 2 bag (SQLite)"), std::string::npos);
+  EXPECT_NE(open(dir / "ros2.db3", o).find("ros2.db3"), std::string::npos) << open(dir / "ros2.db3", o);
   std::filesystem::create_directories(dir / "rosbag2_run");
   test::write_bytes(dir / "rosbag2_run" / "metadata.yaml", "rosbag2_bagfile_information: {}\n");
-  EXPECT_NE(open(dir / "rosbag2_run", o).find("is a ROS 2 bag (a folder with metadata.yaml)"), std::string::npos);
+  EXPECT_NE(open(dir / "rosbag2_run", o).find("no relative_file_paths"), std::string::npos);
   EXPECT_NE(open(dir / "missing.bag", o).find("does not exist"), std::string::npos) << open(dir / "missing.bag", o);
 
   // Truncated bags: cut at several places, every one a single sentence naming the file.
@@ -450,16 +453,21 @@ TEST(BagDataset, CorruptBytesNeverCrash) {
 
 #else
 
-#include "tsdf_mcl/io/dataset.hpp"
+#include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
+#include "tsdf_mcl/io/dataset.hpp"
 
 TEST(BagDataset, BuiltWithoutBagSupport) {
-  EXPECT_FALSE(tsdf_mcl::Dataset::bag_support());
+  EXPECT_FALSE(tsdf_mcl::Dataset::ros1_bag_support());
+  const tsdf_mcl::test::TempDir dir;
+  tsdf_mcl::test::write_bytes(dir / "run.bag", "#ROSBAG V2.0\n" + std::string(5000, '\0'));
+  tsdf_mcl::BagOptions o;
+  o.points_topic = "/points";
   try {
-    tsdf_mcl::Dataset::open_bag("run.bag", {});
+    tsdf_mcl::Dataset::open_bag(dir / "run.bag", o);
     FAIL();
   } catch (const tsdf_mcl::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("built without ROS bag support"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("built without ROS 1 bag support"), std::string::npos) << e.what();
   }
 }
 

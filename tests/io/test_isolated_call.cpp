@@ -9,7 +9,7 @@
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/isolated_call.hpp"
-#include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 #include "checkout_paths.hpp"
 
 namespace tsdf_mcl {

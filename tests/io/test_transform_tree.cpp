@@ -5,20 +5,14 @@
 #include <cmath>
 #include <string>
 
+#include "error_text.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/transform_tree.hpp"
 
 namespace tsdf_mcl {
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 void expect_near(const Pose& a, const Pose& b, double tolerance = 1e-12) {
   EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), tolerance) << a.matrix() << "\n" << b.matrix();

@@ -9,12 +9,13 @@
 #include "dataset_source.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/cloud_io.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/limits.hpp"
-#include "tsdf_mcl/map/map_builder.hpp"
+#include "tsdf_mcl/mapping/map_builder.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
+#include "tsdf_mcl/mapping/h5_import.hpp"
 
 namespace tsdf_mcl::cli {
 namespace {
@@ -230,6 +231,30 @@ TsdfMap map_from_scans(const Options& o, const BuildGeometry& g, const std::stri
   return build_map_from_scans(dataset, scans, options, std::ref(progress));
 }
 
+// The map from the one source the options name.
+TsdfMap build_map(const Options& o, const BuildGeometry& g, const fs::path& output, Progress& progress_out,
+                  Verbosity verbosity) {
+  if (o.has("import_h5")) {
+    // Beside the output: the scratch map is as large as the map, which the system's temporary folder may not hold.
+    return import_reference_h5_isolated(o.text("import_h5"), static_cast<float>(g.truncation), g.max_memory,
+                                        std::filesystem::absolute(output).parent_path());
+  }
+  if (o.has("mesh")) return map_from_mesh(o, g, o.text("mesh"), progress_out);
+  if (o.has("cloud")) return map_from_cloud(o, g, o.text("cloud"), progress_out, verbosity);
+  return map_from_scans(o, g, o.has("bag") ? o.text("bag") : o.text("dataset"), progress_out);
+}
+
+// The closing line: the file, the map's resolution, blocks and memory, the build's time.
+std::string summary_line(const TsdfMap& map, const fs::path& output, double seconds) {
+  const TsdfMap::Stats s = map.stats();
+  char line[600];
+  std::snprintf(line, sizeof(line),
+                "wrote %s: %.3f m voxels, truncation %.3f m, %zu blocks + %zu free blocks, %.1f MiB, built in %.1f s",
+                output.c_str(), static_cast<double>(map.voxel_size()), static_cast<double>(map.truncation()),
+                s.allocated_blocks, s.free_blocks, static_cast<double>(s.memory_bytes) / (1024.0 * 1024.0), seconds);
+  return line;
+}
+
 }  // namespace
 
 int run_build_map(int argc, char** argv) {
@@ -246,33 +271,15 @@ int run_build_map(int argc, char** argv) {
   }
   check_sources_and_output(o);
   const fs::path output = o.text("output");
-  const bool h5 = o.has("import_h5");
-  const BuildGeometry g = build_geometry(o, h5);
+  const BuildGeometry g = build_geometry(o, o.has("import_h5"));
 
   const Verbosity verbosity = verbosity_of(o);
   Progress progress_out("build-map", verbosity);
   const auto started = std::chrono::steady_clock::now();
-  TsdfMap map;
-  if (h5) {
-    // Beside the output: the scratch map is as large as the map, which the system's temporary folder may not hold.
-    map = import_reference_h5_isolated(o.text("import_h5"), static_cast<float>(g.truncation), g.max_memory,
-                                       std::filesystem::absolute(output).parent_path());
-  } else if (o.has("mesh")) {
-    map = map_from_mesh(o, g, o.text("mesh"), progress_out);
-  } else if (o.has("cloud")) {
-    map = map_from_cloud(o, g, o.text("cloud"), progress_out, verbosity);
-  } else {
-    map = map_from_scans(o, g, o.has("bag") ? o.text("bag") : o.text("dataset"), progress_out);
-  }
+  const TsdfMap map = build_map(o, g, output, progress_out, verbosity);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   save_map(map, output);
-  const TsdfMap::Stats s = map.stats();
-  char line[600];
-  std::snprintf(line, sizeof(line),
-                "wrote %s: %.3f m voxels, truncation %.3f m, %zu blocks + %zu free blocks, %.1f MiB, built in %.1f s",
-                output.c_str(), static_cast<double>(map.voxel_size()), static_cast<double>(map.truncation()),
-                s.allocated_blocks, s.free_blocks, static_cast<double>(s.memory_bytes) / (1024.0 * 1024.0), seconds);
-  progress_out.summary(line);
+  progress_out.summary(summary_line(map, output, seconds));
   return 0;
 }
 

@@ -5,7 +5,7 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/cloud_io.hpp"
 #include "tsdf_mcl/core/error.hpp"
 

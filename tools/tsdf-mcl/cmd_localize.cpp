@@ -236,6 +236,24 @@ nlohmann::json summary_entry_json(const RunSummary& summary, const LocalizerOpti
   return summary_entry;
 }
 
+// report.json: the command, the backend, the map and dataset, every parameter, the initialization and the summary.
+nlohmann::json report_json(const Options& o, const Localizer& localizer, const TsdfMap& map, const Dataset& dataset,
+                           const std::vector<std::size_t>& scans, nlohmann::json summary_entry) {
+  nlohmann::json report;
+  report["command"] = "localize";
+  report["version"] = TSDF_MCL_VERSION;
+  report["backend"] = localizer.evaluator().backend();
+  report["device"] = localizer.evaluator().device_name();
+  if (!localizer.evaluator().weight_layout().empty()) report["weight_layout"] = localizer.evaluator().weight_layout();
+  report["backend_note"] = localizer.backend_note();
+  report["map"] = {{"file", o.text("map")}, {"voxel_size", map.voxel_size()}, {"truncation", map.truncation()}};
+  report["dataset"] = {{"dir", dataset.dir().string()}, {"scans", dataset.size()}, {"selected", scans.size()}};
+  report["parameters"] = parameters_json(o);
+  report["initialization"] = initialization_json(*localizer.initialization());
+  report["summary"] = std::move(summary_entry);
+  return report;
+}
+
 // The run's closing line: counts, timings, particles, the verdict, scans by state, the files written.
 std::string summary_line(const RunSummary& summary, const LocalizerOptions& lo, const LocalizeRun& run,
                          std::size_t scan_count, const LocalizeNarrator& narrator,
@@ -279,13 +297,12 @@ int run_localize(int argc, char** argv) {
   refuse_earlier_results(o);
   StagedOutputFolder output(o.text("output"), {"trajectory.tum", "report.json", "snapshots"});
   const fs::path out_dir = output.staging();
-  const std::string map_file = o.text("map");
   const Dataset dataset = open_dataset(o);
   const std::vector<std::size_t> scans = selected_scans(o, dataset, lo);
   // An IMU's gravity, where the dataset has one, stands for the up direction the scan would suggest. Samples are
   // fed as a live IMU would deliver them: up to just past each scan's time.
   const std::vector<ImuSample> imu = lo.use_imu ? dataset.imu() : std::vector<ImuSample>{};
-  const TsdfMap map = load_map(map_file);
+  const TsdfMap map = load_map(o.text("map"));
   Localizer localizer(map, lo);
   Progress progress("localize", verbosity_of(o), "scans");
   if (!dataset.summary().empty()) progress.note(dataset.summary());
@@ -302,21 +319,11 @@ int run_localize(int argc, char** argv) {
 
   write_tum(out_dir / "trajectory.tum", run.trajectory);
   const RunSummary summary = localizer.summary();
-  nlohmann::json report;
-  report["command"] = "localize";
-  report["version"] = TSDF_MCL_VERSION;
-  report["backend"] = localizer.evaluator().backend();
-  report["device"] = localizer.evaluator().device_name();
-  if (!localizer.evaluator().weight_layout().empty()) report["weight_layout"] = localizer.evaluator().weight_layout();
-  report["backend_note"] = localizer.backend_note();
-  report["map"] = {{"file", map_file}, {"voxel_size", map.voxel_size()}, {"truncation", map.truncation()}};
-  report["dataset"] = {{"dir", dataset.dir().string()}, {"scans", dataset.size()}, {"selected", scans.size()}};
-  report["parameters"] = parameters_json(o);
-  report["initialization"] = initialization_json(*localizer.initialization());
   const std::optional<std::size_t> converged_since =
       summary.converged_since_index ? std::optional<std::size_t>(scans[*summary.converged_since_index]) : std::nullopt;
-  report["summary"] = summary_entry_json(summary, lo, run, dataset, scans, narrator, converged_since);
-  report_writer.write(report, out_dir / "report.json");
+  report_writer.write(report_json(o, localizer, map, dataset, scans,
+                                  summary_entry_json(summary, lo, run, dataset, scans, narrator, converged_since)),
+                      out_dir / "report.json");
   output.commit();
   progress.summary(summary_line(summary, lo, run, scans.size(), narrator, converged_since, output.folder()));
   return 0;

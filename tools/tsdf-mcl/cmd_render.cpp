@@ -11,7 +11,7 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/render/image.hpp"

@@ -4,6 +4,7 @@
 #include <memory>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -11,7 +12,7 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "progress.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 #include "tsdf_mcl/io/bag_writer.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/sim/simulator.hpp"
@@ -134,9 +135,10 @@ std::vector<OptionSpec> simulate_options() {
       {"motion_distortion", "", "off",
        "cast each column from the pose at its firing time (off: the whole sweep from its end pose)"},
       {"output", "DIR", "", "output dataset directory; must not hold scans yet"},
-      {"bag", "FILE.bag", "",
-       "also write the run as a ROS 1 bag: /points (frame lidar), /tf odom -> base_link, /tf_static "
-       "base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
+      {"bag", "FILE", "",
+       "also write the run as a bag: FILE.bag ROS 1, FILE.mcap or FILE.db3 one rosbag2 storage file (MCAP, SQLite3), "
+       "any other name a rosbag2 folder (metadata.yaml, NAME_0.mcap); /points (frame lidar), /tf odom -> base_link, "
+       "/tf_static base_link -> lidar, /odom, /ground_truth (map -> base_link); docs/bags.md"},
   });
 }
 
@@ -207,52 +209,35 @@ sim::SimulationOptions simulation_options(const Options& o) {
   return s;
 }
 
-}  // namespace
-
-int run_simulate(int argc, char** argv) {
-  Options o("simulate",
-            "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|town|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
-            "                         [--scene_size M] [--open_air] [--route mapping|test] [--seed N] [--storey K]\n"
-            "                         [--start X,Y,YAW] [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone]\n"
-            "                         [--sensor_tilt DEG] [--duration S | --length M] [--rate HZ] [--speed MPS]\n"
-            "                         [--sensor_height M] [--range_noise M] [--dropout P] [--odom_noise F]\n"
-            "                         [--obstacles N] [--walkers N] [--motion_distortion] [--bag FILE.bag] -o DIR",
-            simulate_options(), argc, argv, 2);
-  if (o.help_requested()) {
-    std::printf("%s", o.help_text().c_str());
-    return 0;
-  }
-  o.expect_positional(0, "options only, e.g. --scene office --lidar vlp16 -o DIR");
-  if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
-
-  sim::SimulationOptions s = simulation_options(o);
-  const std::string route = o.text("route");
-  const std::string out = o.text("output");
-  // The bag is written beside the run, scan by scan; it appears under its name only once the run completes.
-  std::unique_ptr<BagWriter> bag;
-  if (const auto bag_file = o.maybe("bag")) {
-    check_output_file(*bag_file, "bag");
-    bag = std::make_unique<BagWriter>(*bag_file);
-    s.on_scan = [&](const sim::SimulatedScan& scan) {
-      if (bag->scans() == 0) bag->set_base_T_sensor(scan.base_T_sensor);
-      bag->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);
-    };
-  }
-
-  Progress progress("simulate", verbosity_of(o), "scans");
-  s.progress = [&](std::size_t done, std::size_t total) {
-    // Announced once the scene and route are ready, so that bad input ends with a single error line.
-    if (done == 1) {
-      char line[512];
-      std::snprintf(line, sizeof(line), "scene %s, lidar %s on %s, %s route (seed %llu) -> %s", s.scene.c_str(),
-                    s.lidar.c_str(), o.text("platform").c_str(), route.c_str(), static_cast<unsigned long long>(s.seed),
-                    out.c_str());
-      progress.note(line);
-    }
-    progress.update(done, total, "");
+// --bag: the run written as a bag too, beside the run and scan by scan; it appears under its name only once the run
+// completes.
+std::unique_ptr<BagWriter> open_bag(const Options& o, sim::SimulationOptions& s) {
+  const auto bag_option = o.maybe("bag");
+  if (!bag_option) return nullptr;
+  // "run/" names the folder run.
+  const std::filesystem::path bag_file = std::filesystem::path(*bag_option).filename().empty()
+                                             ? std::filesystem::path(*bag_option).parent_path()
+                                             : std::filesystem::path(*bag_option);
+  check_output_file(bag_file, "bag");
+  auto bag = std::make_unique<BagWriter>(bag_file);
+  s.on_scan = [writer = bag.get()](const sim::SimulatedScan& scan) {
+    if (writer->scans() == 0) writer->set_base_T_sensor(scan.base_T_sensor);
+    writer->add_scan(scan.time, *scan.cloud, scan.rings, scan.world_T_sensor, scan.odom_T_sensor);
   };
-  const sim::SimulationSummary r = sim::simulate(s, out);
-  if (bag) bag->close();
+  return bag;
+}
+
+// What runs: the scene, the LiDAR on its platform, the route, the seed and the output folder.
+std::string run_line(const Options& o, const sim::SimulationOptions& s) {
+  char line[512];
+  std::snprintf(line, sizeof(line), "scene %s, lidar %s on %s, %s route (seed %llu) -> %s", s.scene.c_str(),
+                s.lidar.c_str(), o.text("platform").c_str(), o.text("route").c_str(),
+                static_cast<unsigned long long>(s.seed), o.text("output").c_str());
+  return line;
+}
+
+// The closing lines: counts, the route, the landmark's first sight, the bag.
+void report_run(Progress& progress, const sim::SimulationSummary& r, const Options& o, const BagWriter* bag) {
   char line[512];
   std::snprintf(line, sizeof(line),
                 "%zu scans, %zu points, route %.1f m in %.1f s (traversable floor %.0f m^2); took %.1f s", r.scans,
@@ -268,6 +253,39 @@ int run_simulate(int argc, char** argv) {
     progress.summary("wrote " + o.text("bag") + " (" + std::to_string(bag->scans()) +
                      " scans on /points; tf odom -> base_link -> lidar; /ground_truth)");
   }
+}
+
+}  // namespace
+
+int run_simulate(int argc, char** argv) {
+  Options o(
+      "simulate",
+      "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|town|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+      "                         [--scene_size M] [--open_air] [--route mapping|test] [--seed N] [--storey K]\n"
+      "                         [--start X,Y,YAW] [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone]\n"
+      "                         [--sensor_tilt DEG] [--duration S | --length M] [--rate HZ] [--speed MPS]\n"
+      "                         [--sensor_height M] [--range_noise M] [--dropout P] [--odom_noise F]\n"
+      "                         [--obstacles N] [--walkers N] [--motion_distortion]\n"
+      "                         [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
+      simulate_options(), argc, argv, 2);
+  if (o.help_requested()) {
+    std::printf("%s", o.help_text().c_str());
+    return 0;
+  }
+  o.expect_positional(0, "options only, e.g. --scene office --lidar vlp16 -o DIR");
+  if (!o.has("output")) throw Error("missing -o DIR (the output dataset directory)");
+
+  sim::SimulationOptions s = simulation_options(o);
+  const std::unique_ptr<BagWriter> bag = open_bag(o, s);
+  Progress progress("simulate", verbosity_of(o), "scans");
+  s.progress = [&](std::size_t done, std::size_t total) {
+    // Announced once the scene and route are ready, so that bad input ends with a single error line.
+    if (done == 1) progress.note(run_line(o, s));
+    progress.update(done, total, "");
+  };
+  const sim::SimulationSummary r = sim::simulate(s, o.text("output"));
+  if (bag) bag->close();
+  report_run(progress, r, o, bag.get());
   return 0;
 }
 

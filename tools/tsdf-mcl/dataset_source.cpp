@@ -15,7 +15,9 @@ const char* const kBagOnly[] = {"points",    "odom_frame",         "base_frame",
 std::vector<OptionSpec> with_bag_options(std::vector<OptionSpec> specs) {
   const BagOptions d;
   std::vector<OptionSpec> bag = {
-      {"bag", "FILE", "", "ROS 1 bag instead of --dataset (docs/bags.md); needs --points"},
+      {"bag", "FILE", "",
+       "bag instead of --dataset (docs/bags.md): ROS 1 (.bag), or ROS 2 (rosbag2: its folder, or a .db3 or .mcap "
+       "file; SQLite3 or MCAP, CDR); needs --points"},
       {"points", "TOPIC", "",
        "--bag: sensor_msgs/PointCloud2 topic of the scans (their header stamps are the scan times)"},
       {"odom_frame", "FRAME", d.odom_frame,
@@ -25,7 +27,7 @@ std::vector<OptionSpec> with_bag_options(std::vector<OptionSpec> specs) {
       {"odom_topic", "TOPIC", "", "--bag: nav_msgs/Odometry topic to use instead of tf odom_frame -> base_frame"},
       {"imu_topic", "TOPIC", "", "--bag: sensor_msgs/Imu topic (gravity, as a dataset's imu.txt)"},
       {"ground_truth_topic", "TOPIC", "",
-       "--bag: nav_msgs/Odometry or geometry_msgs/PoseStamped topic of world_T_base_frame"},
+       "--bag: nav_msgs/Odometry, geometry_msgs/PoseStamped or PoseWithCovarianceStamped topic of world_T_base_frame"},
       {"tf_topic", "TOPIC", d.tf_topic, "--bag: tf2_msgs/TFMessage topic of moving frames"},
       {"tf_static_topic", "TOPIC", d.tf_static_topic, "--bag: tf2_msgs/TFMessage topic of fixed frames"},
   };
@@ -46,7 +48,6 @@ Dataset open_dataset(const Options& o) {
     if (!dataset) throw Error("missing --dataset DIR or --bag FILE");
     return Dataset::open(o.text("dataset"));
   }
-  if (!Dataset::bag_support()) Dataset::open_bag(o.text("bag"), {});  // throws: built without bag support
   if (!o.has("points")) throw Error("--bag needs --points TOPIC (the sensor_msgs/PointCloud2 topic of the scans)");
   BagOptions b;
   b.points_topic = o.text("points");

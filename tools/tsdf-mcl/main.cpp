@@ -1,13 +1,11 @@
 // tsdf-mcl: global 6-DoF Monte Carlo localization of a LiDAR in a TSDF map (see README.md).
 #include <cstdio>
 #include <cstring>
-#include <exception>
-#include <new>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
-#include "tsdf_mcl/core/error.hpp"
+#include "run_command.hpp"
 #include "tsdf_mcl/core/one_line.hpp"
 #include "tsdf_mcl/localizer/localizer_parameters.hpp"
 
@@ -51,20 +49,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   for (const auto& c : kCommands) {
-    if (std::strcmp(argv[1], c.name) != 0) continue;
-    try {
-      return c.run(argc, argv);
-    } catch (const tsdf_mcl::Error& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
-      return 1;
-    } catch (const std::bad_alloc&) {
-      // Inputs are bounded by the documented limits (README "Limits"); within them the machine may still run out.
-      std::fprintf(stderr, "tsdf-mcl %s: error: out of memory (see the limits in README.md)\n", c.name);
-      return 1;
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "tsdf-mcl %s: internal error: %s\n", c.name, tsdf_mcl::one_line(e.what()).c_str());
-      return 3;
-    }
+    if (std::strcmp(argv[1], c.name) == 0) return tsdf_mcl::cli::run_command(c.name, c.run, argc, argv);
   }
   std::vector<std::string> names;
   for (const auto& c : kCommands) names.push_back(c.name);

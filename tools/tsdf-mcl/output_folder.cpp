@@ -7,7 +7,7 @@
 #include <charconv>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/io/atomic_file.hpp"
+#include "tsdf_mcl/core/atomic_file.hpp"
 
 namespace tsdf_mcl::cli {
 namespace fs = std::filesystem;

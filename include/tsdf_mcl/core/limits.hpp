@@ -33,10 +33,15 @@ inline constexpr std::uint64_t kMaxScanPoints = std::uint64_t{1} << 24;
 inline constexpr std::uint64_t kMaxCloudPoints = std::uint64_t{1} << 34;
 // Text files of a dataset (times.txt, poses.txt, odom.txt) and TUM trajectories.
 inline constexpr std::uint64_t kMaxTextFileBytes = std::uint64_t{1} << 30;
-// ROS 1 bags (Dataset::open_bag) are read message by message, never whole: a bag may be as large as the disk, one
+// Bags (Dataset::open_bag) are read message by message, never whole: a bag may be as large as the disk, one
 // serialized message at most 1 GiB (a 2^24-point scan of 64-byte points).
 inline constexpr std::uint64_t kMaxBagFileBytes = std::uint64_t{1} << 50;
 inline constexpr std::uint64_t kMaxBagMessageBytes = std::uint64_t{1} << 30;
+// rosbag2 MCAP files are read chunk by chunk: one chunk's records at most 1 GiB + 1 MiB (a largest message and the
+// records around it; writers close a chunk at a few MiB).
+inline constexpr std::uint64_t kMaxMcapChunkBytes = kMaxBagMessageBytes + (std::uint64_t{1} << 20);
+// A rosbag2 folder's metadata.yaml (a few KB per topic and storage file).
+inline constexpr std::uint64_t kMaxBagMetadataBytes = std::uint64_t{16} << 20;
 // localize's report.json, read back by evaluate (about 2 KB per scan).
 inline constexpr std::uint64_t kMaxReportFileBytes = std::uint64_t{256} << 20;
 // Parameter files (--config) and the values they may hold after YAML aliases are followed.

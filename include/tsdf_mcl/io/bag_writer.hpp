@@ -1,18 +1,23 @@
 #pragma once
-// Writing a run as a ROS 1 bag (simulate --bag; docs/bags.md), through rosbag_storage, without a ROS master:
+// Writing a run as a bag (simulate --bag; docs/bags.md), without a ROS master or a ROS 2 installation. The name
+// picks the format: FILE.bag a ROS 1 bag (through rosbag_storage), FILE.mcap or FILE.db3 one rosbag2 storage file
+// (MCAP or SQLite3), any other name a rosbag2 folder as `ros2 bag record -o NAME` writes it (metadata.yaml beside
+// NAME_0.mcap, or .db3 with storage "sqlite3"). The topics are the same in every format (ROS 2 type names are
+// "sensor_msgs/msg/PointCloud2" and so on):
 //
 //   points_topic        sensor_msgs/PointCloud2  frame cloud_frame: x y z intensity FLOAT32 (+ ring UINT16 where
 //                                                the scans have rings), header stamp = the scan's time
 //   /tf                 tf2_msgs/TFMessage       odom_frame -> base_frame (odom_T_sensor * sensor_T_base) per scan
 //   /tf_static          tf2_msgs/TFMessage       base_frame -> cloud_frame (base_T_sensor), once, latched
-//                                                (connection header latching=1, as `rosbag record` writes it)
+//                                                (ROS 1: connection header latching=1, as `rosbag record` writes it;
+//                                                ROS 2: offered durability transient_local)
 //   odom_topic          nav_msgs/Odometry        odom_frame -> base_frame, the same as /tf ("" = not written)
 //   ground_truth_topic  nav_msgs/Odometry        world_frame -> base_frame (world_T_sensor * sensor_T_base)
 //   imu_topic           sensor_msgs/Imu          frame cloud_frame (the IMU sits in the LiDAR), add_imu's samples
 //
 // Dataset::open_bag(file, {points_topic, odom_frame, base_frame, ..., ground_truth_topic, imu_topic}) reads it back
-// as the dataset it was written from. Built without rosbag_storage, the constructor throws "built without ROS bag
-// support".
+// as the dataset it was written from. A ROS 1 bag where the library was built without rosbag_storage: the
+// constructor throws "built without ROS 1 bag support".
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
@@ -35,13 +40,21 @@ struct BagWriterOptions {
   std::string odom_topic = "/odom";
   std::string ground_truth_topic = "/ground_truth";
   std::string imu_topic = "/imu";
+  // rosbag2 only.
+  std::string storage = "mcap";  // a folder's storage files: "mcap" or "sqlite3"
+  std::string compression;       // MCAP chunks: "" (none, as rosbag2 writes by default), "zstd" or "lz4"
+  bool mcap_summary = true;      // false: an MCAP file ends at its data end, with no summary and no index
+  std::uint64_t mcap_chunk_bytes = 768 * 1024;  // an MCAP chunk is closed once its records hold this much
+  std::uint64_t split_bytes = 0;                // a folder: the next storage file once one holds more (0: one file), as
+                                                // `ros2 bag record --max-bag-size`
 };
 
 class BagWriter {
  public:
-  // Writes FILE.partial beside FILE, renamed to FILE by close(): a run that fails leaves no half-written bag.
+  // Writes FILE.partial beside FILE (a folder: NAME.partial/), renamed by close(): a run that fails leaves no
+  // half-written bag.
   explicit BagWriter(const std::filesystem::path& file, BagWriterOptions options = {});
-  ~BagWriter();  // without close(), removes FILE.partial
+  ~BagWriter();  // without close(), removes what it wrote
   BagWriter(const BagWriter&) = delete;
   BagWriter& operator=(const BagWriter&) = delete;
 

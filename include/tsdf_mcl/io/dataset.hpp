@@ -1,7 +1,7 @@
 #pragma once
 // The dataset layout of docs/architecture.md: DIR/scans/NNNNNN.bin (float32 x y z intensity), times.txt,
 // optional poses.txt (world_T_sensor) and odom.txt (odom_T_sensor), KITTI 3x4 row-major, optional imu.txt.
-// The same Dataset also reads a ROS 1 bag (Dataset::open_bag, docs/bags.md).
+// The same Dataset also reads a ROS 1 bag or a rosbag2 recording (Dataset::open_bag, docs/bags.md).
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -29,7 +29,8 @@ struct BagOptions {
   std::string odom_frame = "odom";  // odometry from tf odom_frame -> base_frame, ...
   std::string base_frame = "base_link";
   std::string odom_topic;          // ... or from this nav_msgs/Odometry topic (header.frame_id -> child_frame_id)
-  std::string ground_truth_topic;  // nav_msgs/Odometry or geometry_msgs/PoseStamped, world_T_base: poses
+  std::string ground_truth_topic;  // nav_msgs/Odometry, geometry_msgs/PoseStamped or PoseWithCovarianceStamped,
+                                   // world_T_base: poses
   std::string imu_topic;           // sensor_msgs/Imu: imu()
   std::string tf_topic = "/tf";
   std::string tf_static_topic = "/tf_static";
@@ -41,16 +42,16 @@ class Dataset {
   // counts agree with the number of scans. Throws Error naming the file at fault.
   static Dataset open(const std::filesystem::path& dir);
 
-  // A ROS 1 bag as a dataset, without a ROS master: the scans' header stamps, odometry (odom_T_sensor: tf or
-  // odom_topic, interpolated at each stamp, composed with tf base_frame -> the clouds' frame), ground truth
-  // (world_T_sensor likewise) and IMU samples (rotated into the clouds' frame) are read when the bag is opened;
-  // the clouds themselves only by load_scan. Scans before the first or after the last odometry or ground truth
-  // sample are left out (summary() says how many). Throws Error in one sentence: not a bag, a corrupt or
-  // truncated bag, a missing topic (naming those of the type there are), a topic of the wrong type, frames that
-  // no tf connects, scans out of order. Without rosbag_storage at build time (bag_support() false) it throws
-  // "built without ROS bag support".
+  // A bag as a dataset, without ROS: a ROS 1 bag, or a rosbag2 recording (its folder, or one .db3 or .mcap file),
+  // recognized by its content. The scans' header stamps, odometry (odom_T_sensor: tf or odom_topic, interpolated at
+  // each stamp, composed with tf base_frame -> the clouds' frame), ground truth (world_T_sensor likewise) and IMU
+  // samples (rotated into the clouds' frame) are read when the bag is opened; the clouds themselves only by
+  // load_scan. Scans before the first or after the last odometry or ground truth sample are left out (summary()
+  // says how many). Throws Error in one sentence: not a bag, a corrupt or truncated bag, a missing topic (naming
+  // those of the type there are), a topic of the wrong type, frames that no tf connects, scans out of order; a ROS 1
+  // bag where the library was built without rosbag_storage (ros1_bag_support() false).
   static Dataset open_bag(const std::filesystem::path& file, const BagOptions& options);
-  static bool bag_support();
+  static bool ros1_bag_support();
 
   std::size_t size() const { return times_.size(); }
   const std::filesystem::path& dir() const { return dir_; }
@@ -80,7 +81,7 @@ class Dataset {
   // The scan's file; for a bag "FILE:TOPIC[i]", for messages.
   std::filesystem::path scan_path(std::size_t i) const;
 
-  // Where a bag's scans come from (src/io/rosbag/).
+  // Where a bag's scans come from (src/io/rosbag/, src/io/rosbag2/).
   class ScanSource {
    public:
     virtual ~ScanSource() = default;

@@ -12,8 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "tsdf_mcl/io/pointcloud2.hpp"
-#include "tsdf_mcl/core/pose.hpp"
+#include "tsdf_mcl/io/bag_messages.hpp"
 
 namespace tsdf_mcl::ros1 {
 
@@ -27,53 +26,17 @@ inline constexpr MessageType kTfMessage{"tf2_msgs/TFMessage", "94810edda583a504d
 inline constexpr MessageType kOldTfMessage{"tf/tfMessage", "94810edda583a504dfda3829e70d7eec"};  // the same layout
 inline constexpr MessageType kOdometry{"nav_msgs/Odometry", "cd5e73d190d741a2f92e81eda573aca7"};
 inline constexpr MessageType kPoseStamped{"geometry_msgs/PoseStamped", "d3812c3cbc69362b77dc0b19b345f8f5"};
+inline constexpr MessageType kPoseWithCovarianceStamped{"geometry_msgs/PoseWithCovarianceStamped",
+                                                        "953b798c0f514ff060a53a3498ce6246"};
 inline constexpr MessageType kImu{"sensor_msgs/Imu", "6a62c6daae103f4ff57a132d6f95cec2"};
 
-struct Header {
-  std::uint32_t seq = 0;
-  std::uint32_t sec = 0, nsec = 0;
-  std::string frame_id;
-  double stamp() const { return static_cast<double>(sec) + static_cast<double>(nsec) / 1e9; }
-};
-
-// sensor_msgs/PointCloud2; the data stay in the message's bytes: [data_offset, data_offset + data_size).
-struct PointCloud2Message {
-  Header header;
-  PointCloud2Layout layout;
-  std::size_t data_offset = 0, data_size = 0;
-};
-
-// geometry_msgs/TransformStamped: header.frame_id is the parent, the transform parent_T_child.
-struct TransformStamped {
-  Header header;
-  std::string child_frame_id;
-  Pose transform = Pose::Identity();
-};
-
-// nav_msgs/Odometry (child_frame_id set) and geometry_msgs/PoseStamped (child_frame_id empty): the pose
-// header.frame_id_T_child.
-struct PoseMessage {
-  Header header;
-  std::string child_frame_id;
-  Pose pose = Pose::Identity();
-};
-
-// sensor_msgs/Imu, the parts we use (orientation and covariances are skipped).
-struct Imu {
-  Header header;
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();     // rad/s
-  Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();  // m/s^2, specific force
-};
-
-// A name from a bag (topic, type, frame) as error messages show it: bytes outside printable ASCII become '?', at
-// most 200 of them (a corrupt bag's names are arbitrary bytes).
-inline std::string printable_name(const std::string& name) {
-  std::string out = name.substr(0, 200);
-  for (char& c : out) {
-    if (c < 0x20 || c > 0x7E) c = '?';
-  }
-  return name.size() > 200 ? out + "..." : out;
-}
+// The decoded messages are those of every wire format (bag_messages.hpp).
+using msg::Header;
+using msg::Imu;
+using msg::PointCloud2Message;
+using msg::PoseMessage;
+using msg::printable_name;
+using msg::TransformStamped;
 
 // Each throws Error("WHAT: ...") for a message that is truncated, has bytes left over, or holds a value out of
 // range (a non-finite number, a quaternion that is not of unit length within 1e-2: zero quaternions included).
@@ -81,6 +44,7 @@ PointCloud2Message decode_pointcloud2_message(const std::uint8_t* data, std::siz
 std::vector<TransformStamped> decode_tf_message(const std::uint8_t* data, std::size_t size, const std::string& what);
 PoseMessage decode_odometry(const std::uint8_t* data, std::size_t size, const std::string& what);
 PoseMessage decode_pose_stamped(const std::uint8_t* data, std::size_t size, const std::string& what);
+PoseMessage decode_pose_with_covariance_stamped(const std::uint8_t* data, std::size_t size, const std::string& what);
 Imu decode_imu(const std::uint8_t* data, std::size_t size, const std::string& what);
 
 // Only the header, from the start of any message that begins with one (PointCloud2, Odometry, ...).

@@ -129,6 +129,22 @@ class SensorEvaluator {
   virtual std::vector<ShaderStatistics> shader_statistics() const { return {}; }
 };
 
+// An evaluator that holds its two particle sets itself, as both backends do: the active set and the spare one, which
+// swap_particles() exchanges. A backend gives view(set) of set 0 or 1.
+class DoubleBufferedEvaluator : public SensorEvaluator {
+ public:
+  ParticleArrays particles() final { return view(active_); }
+  ParticleArrays spare_particles() final { return view(1 - active_); }
+  void swap_particles() final { active_ = 1 - active_; }
+
+ protected:
+  virtual ParticleArrays view(int set) = 0;
+  int active_set() const { return active_; }
+
+ private:
+  int active_ = 0;
+};
+
 enum class Backend { kAuto, kVulkan, kCpu };
 Backend parse_backend(const std::string& name);  // "auto" | "vulkan" | "cpu"; throws Error otherwise
 
