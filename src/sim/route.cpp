@@ -20,9 +20,8 @@ using Eigen::Vector2d;
 
 constexpr int kSteps[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
 constexpr float kInf = std::numeric_limits<float>::infinity();
-constexpr double kSampleSpacing = 0.05;  // m between route samples
-constexpr double kCoverageRadius = 4.5;  // m: every free cell of a mapping route is this close to a waypoint
-constexpr double kRampApproach = 1.2;    // m driven on the level floor before and after a ramp
+constexpr double kSampleSpacing = 0.05;                // m between route samples
+constexpr double kRampApproach = 1.2;                  // m driven on the level floor before and after a ramp
 constexpr double kLandmarkApproach[2] = {15.0, 45.0};  // m (geodesic) from the start to a landmark
 constexpr double kSnapDistance = 1.0;                  // m: requested points this close to the free region snap onto it
 
@@ -237,14 +236,14 @@ int snap_to_free(const TraversabilityGrid& grid, const Vector2d& p, const std::s
 
 // Farthest-point sampling of the free region by geodesic distance, then a short visiting order (nearest
 // neighbour, improved by 2-opt) starting at a seed-chosen cell.
-std::vector<int> mapping_waypoints(const TraversabilityGrid& grid, Rng& rng) {
+std::vector<int> mapping_waypoints(const TraversabilityGrid& grid, double coverage_radius, Rng& rng) {
   const auto& cells = grid.free_cells();
   std::vector<int> points{cells[rng.below(cells.size())]};
   std::vector<float> nearest = geodesic(grid, points[0]);
   std::vector<std::vector<float>> d{{0.0f}};
   while (true) {
     int far = -1;
-    float far_d = static_cast<float>(kCoverageRadius);
+    float far_d = static_cast<float>(coverage_radius);
     for (int i : cells) {
       if (nearest[i] > far_d) {
         far_d = nearest[i];
@@ -307,9 +306,10 @@ int random_cell_at(const TraversabilityGrid& grid, const std::vector<float>& dis
   return candidates.empty() ? farthest : candidates[rng.below(candidates.size())];
 }
 
-// start: a requested first cell (else the seed picks one); landmark: a cell the route must pass.
+// start: a requested first cell (else the seed picks one); landmark: a cell the route must pass; via_ramp: start
+// before a ramp where there is one.
 std::vector<int> test_waypoints(const TraversabilityGrid& grid, Rng& rng, double min_length, std::optional<int> start,
-                                std::optional<int> landmark) {
+                                std::optional<int> landmark, bool via_ramp) {
   std::vector<int> points;
   double planned = 0.0;
   const auto ramps = find_ramps(grid);
@@ -319,7 +319,7 @@ std::vector<int> test_waypoints(const TraversabilityGrid& grid, Rng& rng, double
         start ? *start : random_cell_at(grid, from_landmark, kLandmarkApproach[0], kLandmarkApproach[1], rng);
     points = {first, *landmark};
     planned = from_landmark[first];
-  } else if (ramps.empty()) {
+  } else if (ramps.empty() || !via_ramp) {
     points.push_back(start ? *start : grid.free_cells()[rng.below(grid.free_cells().size())]);
   } else {
     const auto& ramp = ramps[rng.below(ramps.size())];
@@ -472,7 +472,7 @@ Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const R
   if (test && request.start) start = snap_to_free(grid, request.start->head<2>(), "route start");
   std::vector<int> stops;
   if (!test) {
-    stops = mapping_waypoints(grid, rng);
+    stops = mapping_waypoints(grid, request.coverage_radius, rng);
   } else if (!request.waypoints.empty()) {
     if (start) stops.push_back(*start);
     for (std::size_t k = 0; k < request.waypoints.size(); ++k) {
@@ -481,7 +481,7 @@ Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const R
   } else {
     std::optional<int> landmark;
     if (request.landmark) landmark = snap_to_free(grid, *request.landmark, "landmark viewpoint");
-    stops = test_waypoints(grid, rng, min_length, start, landmark);
+    stops = test_waypoints(grid, rng, min_length, start, landmark, request.via_ramp);
   }
   if (stops.size() < 2) throw Error("route planning: a route needs two places to drive between");
 

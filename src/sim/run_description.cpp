@@ -42,6 +42,14 @@ nlohmann::json scene_json(const RunRecord& r) {
       {"traversable_area_m2", r.summary.traversable_area_m2},
       {"file", "scene.ply"}};
   if (!r.scene.storey_floors.empty()) j["storey_floors"] = r.scene.storey_floors;
+  // Open-air scenes only, so that the other scenes' descriptions stay as they were.
+  if (r.scene.open_air || o.open_air) j["open_air"] = true;
+  if (!r.scene.streets.empty()) {
+    nlohmann::json streets = nlohmann::json::array();
+    for (const Eigen::AlignedBox2f& s : r.scene.streets)
+      streets.push_back({s.min().x(), s.min().y(), s.max().x(), s.max().y()});
+    j["streets"] = {{"carriageways", streets}, {"note", "x0, y0, x1, y1 (m) of each street's carriageway"}};
+  }
   if (r.scene.mirror) {
     const Vector2d centre = r.scene.mirror->translation().head<2>() / 2.0;
     char rule[320];

@@ -28,6 +28,7 @@ using Eigen::Vector3f;
 namespace {
 
 constexpr double kDefaultTestLength = 60.0;  // m, when neither a duration nor a length is given
+constexpr double kOpenAirCoverage = 10.0;    // m from any street point to a mapping route's waypoint
 constexpr double kObstacleSize = 0.5;        // m, footprint of a standing person
 constexpr double kObstacleHeight = 1.8;
 constexpr double kScanSpacingTurn = 30.0 * M_PI / 180.0;  // a turn that keeps a scan despite --scan_spacing
@@ -41,7 +42,7 @@ enum Stream : std::uint64_t {
   kWalkerStream = 14
 };
 
-constexpr const char* kBuiltInScenes[] = {"office", "symmetric", "warehouse", "two-storey"};
+constexpr const char* kBuiltInScenes[] = {"office", "symmetric", "warehouse", "two-storey", "town"};
 // Between the storeys of a mapping route the robot is carried (up the stairs): no scans in this time, nor in
 // kPauseMargin either side of it (the platforms smooth their motion over a quarter second).
 constexpr double kCarryPause = 5.0;   // s
@@ -78,6 +79,7 @@ void validate(const SimulationOptions& o) {
           "walkers are unmapped people: they belong in test runs, not in the mapping run");
   require(o.walkers <= 50, "at most 50 walkers");
   require(!std::isinf(o.ground_plane_z), "ground plane height must be finite");
+  require(std::isfinite(o.scene_size_m) && o.scene_size_m >= 0.0, "the scene size must be finite and not negative");
   require(std::abs(o.sensor_tilt_deg) <= 90.0, "sensor tilt must be within [-90, 90] deg");
   require((!o.start && o.waypoints.empty()) || o.route == RouteKind::test,
           "a start and waypoints shape test routes; a mapping route covers the whole floor");
@@ -97,12 +99,14 @@ bool is_built_in(const std::string& scene) {
 BuiltInScene load_scene(const SimulationOptions& o) {
   BuiltInScene scene;
   if (is_built_in(o.scene)) {
-    scene = built_in_scene(o.scene, o.scene_seed);
+    scene = built_in_scene(o.scene, o.scene_seed, o.scene_size_m);
   } else {
     if (!fs::is_regular_file(o.scene)) {
       throw Error("scene '" + o.scene +
-                  "' is neither a built-in scene (office, symmetric, warehouse, two-storey) nor an existing mesh file");
+                  "' is neither a built-in scene (office, symmetric, warehouse, two-storey, town) nor an existing mesh "
+                  "file");
     }
+    if (o.scene_size_m != 0.0) throw Error("a scene size applies to the built-in town only, not to a mesh file");
     scene.mesh = load_mesh(o.scene);
     if (scene.mesh.triangles.empty()) throw Error("mesh " + o.scene + " has no triangles");
     scene.description = o.scene;
@@ -355,6 +359,7 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
 
   BuiltInScene scene = load_scene(options);
   TriangleMesh& mesh = scene.mesh;
+  const bool open_air = scene.open_air || options.open_air;
   const RayCaster static_scene(mesh);
   // The sensor must not poke into what the robot drives under (the drone keeps its own headroom).
   RobotModel robot = options.robot;
@@ -372,7 +377,7 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   std::vector<TraversabilityGrid> grids;
   const bool mapping = options.route == RouteKind::mapping;
   for (std::size_t k = mapping ? 0 : options.storey; k < (mapping ? storeys : options.storey + 1); ++k) {
-    grids.emplace_back(static_scene, mesh, robot, 0.1, k == 0 ? min_floor : scene.storey_floors[k] - 0.01);
+    grids.emplace_back(static_scene, mesh, robot, 0.1, k == 0 ? min_floor : scene.storey_floors[k] - 0.01, open_air);
     grids.back().exclude(options.skip_areas);
   }
   const TraversabilityGrid& grid = grids.front();  // where walkers and obstacles go (test routes only)
@@ -387,6 +392,9 @@ SimulationSummary simulate(const SimulationOptions& options, const fs::path& out
   const double plan_length = options.duration_s > 0.0 ? options.duration_s * robot.speed + 5.0 : stop_length;
   RouteRequest request{options.start, options.waypoints, std::nullopt};
   if (scene.landmark) request.landmark = scene.landmark->viewpoint;
+  // Outdoors a test route may start on any street, and a mapping route drives each street once.
+  request.via_ramp = !open_air;
+  if (open_air) request.coverage_radius = kOpenAirCoverage;
   std::vector<Route> parts;
   for (const TraversabilityGrid& g : grids) {
     parts.push_back(plan_route(g, static_scene, robot, options.route, options.seed, plan_length, request));

@@ -81,7 +81,7 @@ bool clipped_z_range(const std::array<Eigen::Vector3f, 3>& tri, float x0, float 
 }  // namespace
 
 TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMesh& mesh, const RobotModel& robot,
-                                       double cell, double min_floor_z)
+                                       double cell, double min_floor_z, bool open_air)
     : cell_(cell) {
   const Eigen::AlignedBox3f box = scene.bounds();
   origin_ = box.min().head<2>().cast<double>() - Eigen::Vector2d(cell, cell);
@@ -103,7 +103,10 @@ TraversabilityGrid::TraversabilityGrid(const RayCaster& scene, const TriangleMes
   compute_clearance(blocked);
   // The obstacle may sit anywhere in its cell: half a cell of margin.
   const auto needed = static_cast<float>(robot.radius + 0.5 * cell);
-  choose_free_region(blocked, needed, find_enclosed(scene, robot, blocked, needed));
+  // In the open air no region is enclosed: the largest one wins.
+  choose_free_region(
+      blocked, needed,
+      open_air ? std::vector<std::uint8_t>(floor_.size(), 0) : find_enclosed(scene, robot, blocked, needed));
   if (free_area() < 1.0) {
     char msg[256];
     std::snprintf(msg, sizeof(msg),

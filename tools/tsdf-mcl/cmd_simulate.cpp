@@ -90,11 +90,14 @@ std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> areas_of(const std::str
 // simulate's options: the scene, the sensor and its carrier, the route and how long, noise, the output.
 std::vector<OptionSpec> simulate_options() {
   return with_verbosity_options({
-      {"scene", "office|symmetric|warehouse|two-storey|MESH", "office",
-       "a built-in building (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
-       "a 40 x 25 m warehouse with pallet racks; the office on two storeys of one plan joined by a staircase), "
-       "or a mesh file (STL/PLY/OBJ, metres, z up)"},
-      {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets)"},
+      {"scene", "office|symmetric|warehouse|two-storey|town|MESH", "office",
+       "a built-in scene (docs/simulator.md: a 50 x 20 m office; two identical wings and one landmark; "
+       "a 40 x 25 m warehouse with pallet racks; the office on two storeys of one plan joined by a staircase; an "
+       "open-air town of streets between buildings), or a mesh file (STL/PLY/OBJ, metres, z up)"},
+      {"scene_seed", "N", "1", "furniture of the built-in scenes (the warehouse: pallets; the town: its layout)"},
+      {"scene_size", "M", "", "the town's extent, M x M metres (80-400) [default: 120]"},
+      {"open_air", "", "off",
+       "a mesh of streets in the open: the robot drives the largest connected region (off: the most enclosed)"},
       {"ground_plane", "Z|none", "none",
        "add a ground slab with its top at height Z under the mesh, for meshes without a floor (avz: 0)"},
       {"lidar", "vlp16|os0-64|FILE", "vlp16", "LiDAR model, or a beam table file (see docs/simulator.md)"},
@@ -161,6 +164,13 @@ sim::SimulationOptions simulation_options(const Options& o) {
   sim::SimulationOptions s;
   s.scene = o.text("scene");
   s.scene_seed = o.count("scene_seed");
+  if (o.has("scene_size")) {
+    s.scene_size_m = o.number("scene_size");
+    if (s.scene != "town") throw Error("--scene_size applies to --scene town only");
+    if (!(s.scene_size_m >= 80.0 && s.scene_size_m <= 400.0))
+      throw Error("--scene_size must be in [80, 400] m, got " + o.text("scene_size"));
+  }
+  s.open_air = o.flag("open_air");
   if (o.text("ground_plane") != "none") s.ground_plane_z = o.number("ground_plane");
   s.lidar = o.text("lidar");
   if (o.has("rate")) {
@@ -250,12 +260,13 @@ void report_run(Progress& progress, const sim::SimulationSummary& r, const Optio
 int run_simulate(int argc, char** argv) {
   Options o(
       "simulate",
-      "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
-      "                         [--route mapping|test] [--seed N] [--storey K] [--start X,Y,YAW]\n"
-      "                         [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone] [--sensor_tilt DEG]\n"
-      "                         [--duration S | --length M] [--rate HZ] [--speed MPS] [--sensor_height M]\n"
-      "                         [--range_noise M] [--dropout P] [--odom_noise F] [--obstacles N] [--walkers N]\n"
-      "                         [--motion_distortion] [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
+      "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|town|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+      "                         [--scene_size M] [--open_air] [--route mapping|test] [--seed N] [--storey K]\n"
+      "                         [--start X,Y,YAW] [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone]\n"
+      "                         [--sensor_tilt DEG] [--duration S | --length M] [--rate HZ] [--speed MPS]\n"
+      "                         [--sensor_height M] [--range_noise M] [--dropout P] [--odom_noise F]\n"
+      "                         [--obstacles N] [--walkers N] [--motion_distortion]\n"
+      "                         [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
       simulate_options(), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());

@@ -54,13 +54,17 @@ struct RouteRequest {
   std::optional<Eigen::Vector3d> start;     // x, y (m), yaw (rad): begin here, facing there
   std::vector<Eigen::Vector2d> waypoints;   // drive through these in order and end at the last
   std::optional<Eigen::Vector2d> landmark;  // begin 15-45 m (geodesic) away from this floor point, then pass it
+  bool via_ramp = true;  // begin before a ramp where the floor has one; false: anywhere (streets in the open air)
+  // Mapping: every free cell lies within this geodesic distance (m) of a waypoint. Indoors 4.5 m enters every room;
+  // on open streets, seen far along, 10 m drives each street once.
+  double coverage_radius = 4.5;
 };
 
-// Mapping: visits waypoints spread over the whole free region (every free cell within a few metres of
-// one), in a short order. Test: the request's waypoints, if any; else it passes the landmark (starting 15 to
-// 45 m from it) or, where the floor has ramps, starts a few metres before a ramp and drives over it; then on
-// through random waypoints until it is at least min_length long. Different seeds give different routes.
-// Requested points snap to the nearest free cell within 1 m (Error if none).
+// Mapping: visits waypoints spread over the whole free region (every free cell within the request's
+// coverage_radius of one), in a short order. Test: the request's waypoints, if any; else it passes the landmark
+// (starting 15 to 45 m from it) or, where the floor has ramps and the request says via_ramp, starts a few metres before
+// a ramp and drives over it; then on through random waypoints until it is at least min_length long. Different seeds
+// give different routes. Requested points snap to the nearest free cell within 1 m (Error if none).
 Route plan_route(const TraversabilityGrid& grid, const RayCaster& scene, const RobotModel& robot, RouteKind kind,
                  std::uint64_t seed, double min_length, const RouteRequest& request = {});
 

@@ -1,7 +1,7 @@
 #pragma once
 // LiDAR simulation: spinning multi-beam LiDAR models, ray casting against triangle meshes, the built-in
-// scenes (office, symmetric building, warehouse), and whole runs of a ground robot, a walking person or a
-// drone carrying the sensor along a route, written as a dataset (docs/architecture.md layout).
+// scenes (office, symmetric building, warehouse, two storeys, an open-air town), and whole runs of a ground robot, a
+// walking person or a drone carrying the sensor along a route, written as a dataset (docs/architecture.md layout).
 //
 // Frames: world z up; the robot base sits on the floor (x forward, y left, z up); the ground robot's sensor
 // frame is the base frame lifted by RobotModel::sensor_height. Poses are world_T_sensor unless a name says
@@ -142,6 +142,10 @@ struct BuiltInScene {
   // Floor heights of the storeys, lowest first (m); empty: one storey. simulate plans a test route on one storey
   // and a mapping route over each in turn.
   std::vector<float> storey_floors;
+  // Open air (the town): the traversable floor is the largest connected region; indoors it is the most enclosed.
+  bool open_air = false;
+  // The carriageways of a scene with streets (x, y rectangles, m): every street point a route may use.
+  std::vector<Eigen::AlignedBox2f> streets;
 };
 
 // Two identical wings (x 0..14 and 26..40 m) either side of a lobby, 40 x 16 m, 3 m ceiling: the building
@@ -163,8 +167,18 @@ TriangleMesh warehouse_scene(std::uint64_t seed = 1);
 // the landmark: nothing else tells the storeys apart. storey_floors = {0, 3.2}.
 BuiltInScene two_storey_scene(std::uint64_t seed = 1);
 
-// "office", "symmetric", "warehouse" or "two-storey" with its seed; throws Error for another name.
-BuiltInScene built_in_scene(const std::string& name, std::uint64_t seed);
+// An open-air town on a size_m x size_m ground slab (x, y in [0, size_m], ground z = 0), no roof: a grid of
+// streets (8-14 m carriageways) between blocks raised 0.15 m (the kerb), each holding box buildings 3-25 m high
+// (rows around a courtyard, detached L-shaped or set-back buildings, a tower on a podium, a ring with an archway),
+// a park or a parking lot; blocks of one size may share a design (look-alike streets). Street lamps, trees, signs,
+// bins, parked cars along the kerbs; plazas raised 0.9 m with a 6 deg ramp up from the street on two sides; a
+// verge with a hedge around the town. The seed decides the grid, the designs and the furniture; size_m is 80-400.
+// open_air is set and `streets` holds the carriageways.
+BuiltInScene town_scene(std::uint64_t seed = 1, double size_m = 120.0);
+
+// "office", "symmetric", "warehouse", "two-storey" or "town" with its seed; size_m > 0 sets the town's extent
+// (0: its default, 120 m; the other scenes have one size). Throws Error for another name or a size elsewhere.
+BuiltInScene built_in_scene(const std::string& name, std::uint64_t seed, double size_m = 0.0);
 
 // What carries the sensor along the route (docs/simulator.md has the figures):
 //   ground:   a robot base that follows the floor (pitch and roll from the floor under its wheels), the
@@ -222,6 +236,10 @@ struct SimulatedScan {
 struct SimulationOptions {
   std::string scene = "office";  // a built-in scene (built_in_scene) or a mesh file (STL/PLY/OBJ, metres, z up)
   std::uint64_t scene_seed = 1;  // furniture of the built-in scenes
+  double scene_size_m = 0.0;     // the town's extent (m, 80-400); 0: its default, 120 m
+  // The traversable floor is the largest connected region, not the most enclosed one: a mesh of streets in the open
+  // (built-in open-air scenes say so themselves).
+  bool open_air = false;
   // Adds a closed ground slab with its top at this height under the mesh's footprint, for meshes without a
   // floor of their own (Gazebo worlds get theirs from a ground plane); NaN: none.
   double ground_plane_z = std::numeric_limits<double>::quiet_NaN();
@@ -272,9 +290,9 @@ struct SimulationSummary {
   double wall_time_s = 0.0;
 };
 
-// Builds the scene, finds the traversable floor (the largest connected free region, enclosed floor first),
-// plans and drives the route, carries the sensor along it on the platform, places the obstacles beside it,
-// and writes DIR/scans/, times.txt, poses.txt (world_T_sensor), odom.txt (odom_T_sensor), scene.ply (with
+// Builds the scene, finds the traversable floor (the largest connected free region, enclosed floor first unless
+// open air), plans and drives the route, carries the sensor along it on the platform, places the obstacles beside
+// it, and writes DIR/scans/, times.txt, poses.txt (world_T_sensor), odom.txt (odom_T_sensor), scene.ply (with
 // the obstacles), simulation.json (every parameter and count), for a scene with a landmark
 // landmark_points.txt (per scan, the returns on it) and with walkers walkers.txt (per scan, the returns on
 // them and where they are). Throws Error naming what is at fault.

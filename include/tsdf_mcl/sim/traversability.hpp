@@ -9,7 +9,7 @@
 // away (a cliff). The robot's centre keeps its radius from blocked cells. Of the connected regions that
 // leaves, the traversable floor is the one with the most enclosed floor (where horizontal rays hit the mesh
 // in nearly every direction), the largest among equals: indoors wins over the open ground around a
-// building standing on a ground plane.
+// building standing on a ground plane. In the open air (streets between buildings) the largest region wins.
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
@@ -23,10 +23,10 @@ namespace tsdf_mcl::sim {
 
 class TraversabilityGrid {
  public:
-  // Floors below min_floor_z are ignored (geometry under an added ground plane). Throws Error when the mesh
-  // leaves no traversable region.
+  // Floors below min_floor_z are ignored (geometry under an added ground plane). open_air: the largest region is
+  // the traversable floor, with no test of enclosure. Throws Error when the mesh leaves no traversable region.
   TraversabilityGrid(const RayCaster& scene, const TriangleMesh& mesh, const RobotModel& robot, double cell = 0.1,
-                     double min_floor_z = -std::numeric_limits<double>::infinity());
+                     double min_floor_z = -std::numeric_limits<double>::infinity(), bool open_air = false);
 
   int width() const { return width_; }
   int height() const { return height_; }
