@@ -26,7 +26,7 @@ void LocalizationNode::publish(const ros::Time& stamp, const ScanRecord& record,
 
   geometry_msgs::PoseArray hypotheses;
   hypotheses.header = pose.header;
-  for (const Hypothesis& h : e.hypotheses) hypotheses.poses.push_back(msg_from_pose(h.pose));
+  for (const Place& h : e.places) hypotheses.poses.push_back(msg_from_pose(h.pose));
   hypotheses_pub_.publish(hypotheses);
 
   if (record.step.updated && particles_pub_.getNumSubscribers() > 0 && settings_.max_published_particles > 0) {
@@ -90,14 +90,16 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
   status.name = "tsdf_mcl: localization";
   status.hardware_id = settings_.base_frame_id;
   std::string state = "searching";
+  std::string reason;
   std::string hypotheses;
   if (record) {
     // The library classifies (track_state.hpp); the node only reports it.
     const PoseEstimate& e = record->step.estimate;
     state = to_string(record->step.state);
+    reason = to_string(record->step.reason);
     char buf[160];
-    for (std::size_t i = 0; i < e.hypotheses.size() && i < 5; ++i) {
-      const Hypothesis& h = e.hypotheses[i];
+    for (std::size_t i = 0; i < e.places.size() && i < 5; ++i) {
+      const Place& h = e.places[i];
       std::snprintf(buf, sizeof(buf), "%s%.0f %% at (%.2f, %.2f, %.2f, yaw %.0f deg)", i ? "; " : "", 100.0 * h.weight,
                     h.pose.translation().x(), h.pose.translation().y(), h.pose.translation().z(),
                     yaw_of(h.pose) * 180.0 / M_PI);
@@ -115,6 +117,7 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
     status.values.push_back(kv);
   };
   add("state", state);
+  add("reason", reason);
   add("hypotheses", hypotheses);
   add("update_ms", std::to_string(update_ms));
   add("scan_period_ms", std::to_string(1000.0 * scan_period_));
@@ -132,15 +135,16 @@ void LocalizationNode::publish_status(const ros::Time& stamp, const ScanRecord* 
     add("particles", std::to_string(record->step.particles));
     add("inlier_ratio", std::to_string(record->step.estimate.inlier_ratio));
     add("map_coverage", std::to_string(record->step.estimate.coverage));
-    // Places the scans have not told from the track (look_alikes.hpp): while any is listed, `converged` waits.
-    std::string look_alikes;
+    // Places the ledger has not told from the track (place_ledger.hpp): while any is listed, `converged` is not
+    // entered (a converged track keeps it until a rival is proven better).
+    std::string rivals;
     char buf[96];
-    for (const Pose& p : record->step.look_alikes) {
-      std::snprintf(buf, sizeof(buf), "%s(%.2f, %.2f, %.2f)", look_alikes.empty() ? "" : "; ", p.translation().x(),
+    for (const Pose& p : record->step.rivals) {
+      std::snprintf(buf, sizeof(buf), "%s(%.2f, %.2f, %.2f)", rivals.empty() ? "" : "; ", p.translation().x(),
                     p.translation().y(), p.translation().z());
-      look_alikes += buf;
+      rivals += buf;
     }
-    add("look_alikes", look_alikes);
+    add("rivals", rivals);
   }
   add("extrinsic", last_extrinsic_source_);  // tf, or ~sensor_extrinsics/<frame>
   add("backend", localizer_->evaluator().backend());

@@ -7,9 +7,6 @@
 namespace tsdf_mcl::cli {
 namespace {
 
-// A state is announced once it held for this many filter updates (the flag may flicker for an update or two
-// while a look-alike is weighed; a pipe should not get a line for each flicker). Converged is announced at once.
-constexpr std::size_t kStateHoldUpdates = 3;
 // An estimate this far (m) from the initial pose after the first update did not come from there.
 constexpr double kMovedAway = 1.0;
 
@@ -28,16 +25,16 @@ std::string format(const char* fmt, ...) {
 LocalizeNarrator::LocalizeNarrator(Progress& progress, const LocalizerOptions& options, std::size_t total_scans)
     : progress_(progress), options_(options), total_(total_scans) {}
 
-// After the first update from an initial pose: a poor fit of the best hypothesis, or a best hypothesis that
+// After the first update from an initial pose: a poor fit of the best place, or a best place that
 // already lies elsewhere (the background search found a better place), both mean the scan does not fit there.
 void LocalizeNarrator::explain_initial_fit(std::size_t index, const FilterStep& step) {
   explained_fit_ = true;
   const double fit = step.estimate.inlier_ratio;
-  const double needed = options_.filter.convergence.min_inlier_ratio;
+  const double needed = options_.filter.states.min_inliers;
   const double moved = (step.estimate.pose.translation() - options_.initial_pose->translation()).norm();
   if (moved > kMovedAway) {
     progress_.note(
-        format("scan %zu does not fit at the given initial pose: the best hypothesis after the first "
+        format("scan %zu does not fit at the given initial pose: the best place after the first "
                "update lies %.1f m from it; the filter is searching",
                index, moved));
   } else if (std::isfinite(fit) && fit < needed) {
@@ -45,7 +42,7 @@ void LocalizeNarrator::explain_initial_fit(std::size_t index, const FilterStep& 
         format("scan %zu does not fit at the given initial pose: %.0f %% of its points lie within %.2f m "
                "of a surface (converged needs %.0f %%); the filter is searching around it and, if the "
                "fit stays poor, the whole map",
-               index, 100.0 * fit, static_cast<double>(options_.filter.inlier_distance), 100.0 * needed));
+               index, 100.0 * fit, static_cast<double>(options_.filter.places.inlier_distance), 100.0 * needed));
   }
 }
 
@@ -84,20 +81,20 @@ void LocalizeNarrator::scan(std::size_t k, std::size_t index, const ScanRecord& 
                  "random particles (recovery)",
                  index));
     }
-    const TrackState now = step.state;
-    candidate_updates_ = now == candidate_ ? candidate_updates_ + 1 : 1;
-    candidate_ = now;
-    if (now != reported_ && (now == TrackState::kConverged || candidate_updates_ >= kStateHoldUpdates)) {
+    // The filter's state machine holds its states with hysteresis: every change is news, with its reason.
+    if (step.state != reported_) {
       milestone = true;
-      reported_ = now;
-      if (now == TrackState::kConverged && !first_converged_) first_converged_ = index;
-      if (now != TrackState::kConverged) searching_noted_ = false;
+      reported_ = step.state;
+      if (reported_ == TrackState::kConverged && !first_converged_) first_converged_ = index;
+      if (reported_ != TrackState::kConverged) searching_noted_ = false;
     }
   }
   std::string status = std::to_string(step.updated ? step.next_particles : record.particles_before) + " particles, " +
                        to_string(reported_);
-  if (milestone)
-    status = "scan " + std::to_string(index) + ": " + to_string(reported_) + ", " + status.substr(0, status.find(','));
+  if (milestone) {
+    status = "scan " + std::to_string(index) + ": " + to_string(reported_) + " (" + to_string(step.reason) + "), " +
+             status.substr(0, status.find(','));
+  }
   progress_.update(k + 1, total_, status, milestone);
 }
 

@@ -19,7 +19,8 @@ struct OptionSpec {
 class Options {
  public:
   // Parses argv[first..]: "--name value", "--name=value", "--flag", positional arguments; "-o" stands for "--output".
-  // Throws Error for an unknown option or a missing value. Sets help_requested() for --help / -h.
+  // Throws Error for an unknown option or a missing value. Sets help_requested() for --help / -h and --help-all
+  // (which also lists the options of the "expert" group).
   Options(std::string command, std::string usage, std::vector<OptionSpec> specs, int argc, char** argv, int first);
 
   bool help_requested() const { return help_; }
@@ -51,6 +52,7 @@ class Options {
   std::map<std::string, std::string> values_;
   std::vector<std::string> positional_;
   bool help_ = false;
+  bool help_all_ = false;
 };
 
 // An angle as text in degrees, or with an explicit unit ("90deg", "1.57rad"); radians back. Error naming `what`

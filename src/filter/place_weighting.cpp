@@ -1,4 +1,4 @@
-#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/place_weighting.hpp"
 
 #include <algorithm>
 #include <cmath>

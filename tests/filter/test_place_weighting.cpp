@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/place_weighting.hpp"
 
 namespace tsdf_mcl {
 namespace {
