@@ -65,7 +65,7 @@ ParticleFilter::Core::PlaceFits ParticleFilter::Core::fit_places(std::size_t n,
       heaviest_particles(group_.data(), weights_.data(), n, h.size(), o.refine_starts);
   std::vector<std::vector<std::size_t>> starts(h.size());
   for (std::size_t r = 0; r < h.size(); ++r) {
-    if (!heaviest[r].empty() && !compact(h[r], params_.estimate)) starts[r].push_back(heaviest[r].front());
+    if (!heaviest[r].empty()) starts[r].push_back(heaviest[r].front());
   }
   const auto refine = [&] {
     return refine_places(map_, h, evaluator_.particles(), starts, points, plain_model(params_.sensor),

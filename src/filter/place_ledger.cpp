@@ -34,6 +34,7 @@ void PlaceLedger::reset() {
   started_ = false;
   track_ = Pose::Identity();
   travel_ = 0.0;
+  judged_travel_ = 0.0;
   failing_ = 0;
   rivals_.clear();
   refuted_.clear();
@@ -49,7 +50,7 @@ PlaceLedger::Standing PlaceLedger::standing(const Rival& r) const {
 }
 
 bool PlaceLedger::proven(const Rival& r) const {
-  return track_mapped_ && r.evidence <= -options_.decide_nats && r.window() <= -options_.decide_nats &&
+  return r.evidence <= -options_.decide_nats && r.window() <= -options_.decide_nats &&
          travel_ - r.found_at >= options_.window_m;
 }
 
@@ -96,6 +97,7 @@ PlaceLedger::Outcome PlaceLedger::update(const Input& in) {
   std::optional<Pose> left;
   if (started_) {
     travel_ += in.motion.translation().norm();
+    if (in.track_mapped) judged_travel_ += in.motion.translation().norm();
     if (moved) {
       rebase(predicted, in.track);
       left = refine_(predicted);
@@ -103,7 +105,6 @@ PlaceLedger::Outcome PlaceLedger::update(const Input& in) {
   }
   started_ = true;
   track_ = in.track;
-  track_mapped_ = in.track_mapped;
 
   // The followed rivals refined from where the track carries them, then every place judged against the track (the
   // first alone, so that the judge's work on the track side is done once before the others run in parallel).
@@ -175,8 +176,12 @@ void PlaceLedger::follow_rivals(const std::vector<Pose>& places, const std::vect
     }
     const double e = counted(verdict.evidence, track_mapped);
     r.evidence += e;
-    r.recent.emplace_back(travel_, e);
-    while (travel_ - r.recent.front().first > options_.window_m) r.recent.pop_front();
+    // The window holds the last window_m of travel where the map judged the track: a track carried off the map (a
+    // kidnapping, an unmapped room) keeps the evidence it gathered while it could be judged.
+    if (track_mapped) {
+      r.recent.emplace_back(judged_travel_, e);
+      while (judged_travel_ - r.recent.front().first > options_.window_m) r.recent.pop_front();
+    }
     if (r.evidence >= options_.decide_nats || !plausible(verdict)) {
       refute(r.relative);
       continue;
@@ -208,7 +213,7 @@ void PlaceLedger::admit(const std::vector<Pose>& places, const std::vector<Verdi
     }
     if (!plausible(now)) continue;
     if (refuted && now.evidence > -options_.decide_nats) continue;
-    rivals_.push_back(Rival{place * track_.inverse(), evidence, {{travel_, e}}, travel_});
+    rivals_.push_back(Rival{place * track_.inverse(), evidence, {{judged_travel_, e}}, travel_});
   }
 }
 
@@ -227,7 +232,7 @@ void PlaceLedger::challenge(const Input& in, const Pose& continuation, Outcome& 
       r.found_at = travel_;
     }
     if (rivals_.size() < options_.max_rivals && -ratio < options_.decide_nats)
-      rivals_.push_back(Rival{continuation * track_.inverse(), -ratio, {{travel_, -ratio}}, travel_});
+      rivals_.push_back(Rival{continuation * track_.inverse(), -ratio, {{judged_travel_, -ratio}}, travel_});
     failing_ = 0;
     out.moved = out.challenger_taken = true;
     return;

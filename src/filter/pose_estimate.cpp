@@ -281,17 +281,9 @@ bool take_place(PoseEstimate& e, std::size_t index, const PoseEstimateOptions& o
   return top.weight >= o.converged_weight && compact(top, o);
 }
 
-std::vector<Place> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
-                                                double total) const {
-  // Two passes over the particles for all k places at once (means, then covariances), in parallel over
-  // fixed chunks of particles whose sums are added in chunk order: the result does not depend on the threads.
+std::vector<PoseEstimator::Moments> PoseEstimator::moments(const ParticleArrays& p, const double* w, std::size_t n,
+                                                           std::size_t k) const {
   const std::size_t chunks = (n + kDescribeChunk - 1) / kDescribeChunk;
-  struct Moments {
-    double weight = 0.0;
-    std::size_t particles = 0;
-    Eigen::Vector3d position = Eigen::Vector3d::Zero();
-    Eigen::Matrix4d rotation = Eigen::Matrix4d::Zero();  // sum w q q^T (Markley's mean)
-  };
   std::vector<Moments> part(chunks * k);
 #pragma omp parallel for schedule(static) if (n >= kParallelParticles)
   for (std::ptrdiff_t c = 0; c < static_cast<std::ptrdiff_t>(chunks); ++c) {
@@ -309,7 +301,6 @@ std::vector<Place> PoseEstimator::describe(const ParticleArrays& p, const double
       ++m.particles;
     }
   }
-  std::vector<Place> h(k);
   std::vector<Moments> sum(k);
   for (std::size_t c = 0; c < chunks; ++c) {
     for (std::size_t r = 0; r < k; ++r) {
@@ -320,6 +311,16 @@ std::vector<Place> PoseEstimator::describe(const ParticleArrays& p, const double
       sum[r].particles += m.particles;
     }
   }
+  return sum;
+}
+
+std::vector<Place> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
+                                           double total) const {
+  // Two passes over the particles for all k places at once (means, then covariances), in parallel over fixed chunks
+  // of particles whose sums are added in chunk order: the result does not depend on the threads.
+  const std::size_t chunks = (n + kDescribeChunk - 1) / kDescribeChunk;
+  const std::vector<Moments> sum = moments(p, w, n, k);
+  std::vector<Place> h(k);
   std::vector<Eigen::Vector3d> mean_position(k);
   std::vector<Eigen::Quaterniond> inverse_mean(k);
   for (std::size_t r = 0; r < k; ++r) {

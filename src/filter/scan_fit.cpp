@@ -219,6 +219,28 @@ PointEvidence point_evidence(const TsdfMap& map, const EndpointModel& model, con
   return e;
 }
 
+namespace {
+
+// An endpoint in unknown space is a miss where its ray went into a surface the map holds and on beyond its band. Where
+// the ray was in observed free space within the band's depth before it (a positive distance, before any voxel deep
+// inside a surface), the endpoint sits in a hole of a surface the map saw only at a grazing angle (a skipped room's
+// ceiling seen through its door: the surface's own voxels unknown, those beside them known), or where the observed
+// free space ends. The map cannot say whether a surface is there.
+bool in_a_hole(const kernel::MapView& view, const float g[3], const Eigen::Vector3f& direction, float range,
+               float voxel, float truncation, std::int32_t near_surface) {
+  if (kernel::sample_nearest(view, g) != TsdfMap::kUnknownValue) return false;
+  for (float back = voxel; back <= truncation + 0.5f * voxel && back < range; back += voxel) {
+    const float h[3] = {g[0] - back * direction.x(), g[1] - back * direction.y(), g[2] - back * direction.z()};
+    const std::int32_t v = kernel::sample_nearest(view, h);
+    if (v == TsdfMap::kUnknownValue) continue;
+    if (v <= -near_surface) return false;
+    if (v > 0) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points,
                                  float reach, std::vector<std::uint8_t>& observed) {
   if (points.empty() || map.empty() || !(reach > 0.0f)) return 0;
@@ -247,24 +269,7 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
       }
       return false;
     };
-    // An endpoint in unknown space is a miss where its ray went into a surface the map holds and on beyond its band.
-    // Where the ray was in observed free space within the band's depth before it (a positive distance, before any
-    // voxel deep inside a surface), the endpoint sits in a hole of a surface the map saw only at a grazing angle (a
-    // skipped room's ceiling seen through its door: the surface's own voxels unknown, those beside them known), or
-    // where the observed free space ends. The map cannot say whether a surface is there.
-    bool frontier = false;
-    if (kernel::sample_nearest(view, g) == TsdfMap::kUnknownValue) {
-      for (float back = voxel; back <= truncation + 0.5f * voxel && back < range; back += voxel) {
-        const float h[3] = {g[0] - back * direction.x(), g[1] - back * direction.y(), g[2] - back * direction.z()};
-        const std::int32_t v = kernel::sample_nearest(view, h);
-        if (v == TsdfMap::kUnknownValue) continue;
-        if (v <= -near_surface) break;
-        if (v > 0) {
-          frontier = true;
-          break;
-        }
-      }
-    }
+    bool frontier = in_a_hole(view, g, direction, range, voxel, truncation, near_surface);
     for (int a = 0; a < 3 && !frontier; ++a) {
       for (const float sign : {-1.0f, 1.0f}) {
         float at[3] = {g[0], g[1], g[2]};
@@ -337,41 +342,55 @@ bool distance_and_gradient(const kernel::MapView& view, const float g[3], float*
 
 }  // namespace
 
+namespace {
+
+// The Gauss-Newton normal equations of the points' distances at `pose` (Huber-weighted beyond 0.1 m; points in unknown
+// space or beyond 0.8 of the truncation band take no part); returns how many points took part.
+std::size_t point_normal_equations(const kernel::MapView& view, float band, const Pose& pose,
+                                   const std::vector<Eigen::Vector3f>& points, Eigen::Matrix<double, 6, 6>& jtj,
+                                   Eigen::Matrix<double, 6, 1>& jtr) {
+  constexpr double kHuber = 0.1;  // m
+  jtj.setZero();
+  jtr.setZero();
+  std::size_t used = 0;
+  const Eigen::Matrix3f r = pose.linear().cast<float>();
+  const Eigen::Vector3f t = pose.translation().cast<float>();
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3f w = r * p + t;
+    const float g[3] = {w.x() * view.inv_voxel, w.y() * view.inv_voxel, w.z() * view.inv_voxel};
+    float d = 0.0f;
+    Eigen::Vector3f grad;
+    if (!distance_and_gradient(view, g, &d, &grad) || std::abs(d) > band) continue;
+    grad *= view.inv_voxel;  // per metre
+    // Rotation about the sensor, not the map's origin (tens of metres away, where a small turn is a large shift):
+    // d(w') for w' = t + dt + (1 + [dtheta]x) R p, so the Jacobian is [grad, (R p) x grad].
+    Eigen::Matrix<double, 6, 1> j;
+    j.head<3>() = grad.cast<double>();
+    j.tail<3>() = (r * p).cast<double>().cross(grad.cast<double>());
+    const double weight = std::abs(d) <= kHuber ? 1.0 : kHuber / std::abs(d);
+    jtj.selfadjointView<Eigen::Lower>().rankUpdate(j, weight);
+    jtr += weight * j * static_cast<double>(d);
+    ++used;
+  }
+  jtj = jtj.selfadjointView<Eigen::Lower>();
+  return used;
+}
+
+}  // namespace
+
 Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations,
                  const WallTilt* walls) {
   if (points.empty() || map.empty()) return pose;
   const kernel::MapView view(map);
   const float band = 0.8f * map.truncation();
-  constexpr double kHuber = 0.1;  // m
   // A step this small changes nothing the filter measures: the refinement has settled.
   constexpr double kSettledM = 5e-4;
   constexpr double kSettledRad = 2e-4;
   Pose current = pose;
   for (int iteration = 0; iteration < iterations; ++iteration) {
-    Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
-    std::size_t used = 0;
-    const Eigen::Matrix3f r = current.linear().cast<float>();
-    const Eigen::Vector3f t = current.translation().cast<float>();
-    for (const Eigen::Vector3f& p : points) {
-      const Eigen::Vector3f w = r * p + t;
-      const float g[3] = {w.x() * view.inv_voxel, w.y() * view.inv_voxel, w.z() * view.inv_voxel};
-      float d = 0.0f;
-      Eigen::Vector3f grad;
-      if (!distance_and_gradient(view, g, &d, &grad) || std::abs(d) > band) continue;
-      grad *= view.inv_voxel;  // per metre
-      // Rotation about the sensor, not the map's origin (tens of metres away, where a small turn is a large
-      // shift): d(w') for w' = t + dt + (1 + [dtheta]x) R p, so the Jacobian is [grad, (R p) x grad].
-      Eigen::Matrix<double, 6, 1> j;
-      j.head<3>() = grad.cast<double>();
-      j.tail<3>() = (r * p).cast<double>().cross(grad.cast<double>());
-      const double weight = std::abs(d) <= kHuber ? 1.0 : kHuber / std::abs(d);
-      jtj.selfadjointView<Eigen::Lower>().rankUpdate(j, weight);
-      jtr += weight * j * static_cast<double>(d);
-      ++used;
-    }
-    if (used < 12) return current;
-    jtj = jtj.selfadjointView<Eigen::Lower>();
+    Eigen::Matrix<double, 6, 6> jtj;
+    Eigen::Matrix<double, 6, 1> jtr;
+    if (point_normal_equations(view, band, current, points, jtj, jtr) < 12) return current;
     if (walls != nullptr && walls->information > 0.0) {
       // e = u . (R n); turning by dtheta adds u . (dtheta x R n) = dtheta . (R n x u).
       for (const Eigen::Vector3d& n : walls->normals) {

@@ -45,7 +45,7 @@ const char* to_string(StateReason reason) {
     case StateReason::kRivalProven:
       return "a look-alike proved better than the track";
     case StateReason::kChallenged:
-      return "a challenger is being weighed; the estimate holds the track";
+      return "the belief moved to a challenger the ledger has not proven; the estimate holds the track";
     case StateReason::kProven:
       return "every rival refuted";
     case StateReason::kMapCoversLittle:

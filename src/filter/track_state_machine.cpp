@@ -86,15 +86,22 @@ TrackState TrackStateMachine::update(const StateEvidence& e) {
 }
 
 TrackState TrackStateMachine::hold(const StateEvidence& e, bool same_place) {
+  // Where the map covers too little of the scan at the track, nothing there can speak for or against it: that is
+  // what the state says, whatever the belief does meanwhile.
+  const bool unmapped =
+      e.coverage < options_.min_coverage || (state_ == TrackState::kUnmapped && e.coverage < judged_coverage_);
   if (!same_place) {
     set(TrackState::kAmbiguous, StateReason::kChangeOfMind);
+  } else if (unmapped) {
+    set(TrackState::kUnmapped, StateReason::kMapCoversLittle);
+  } else if (e.inliers < options_.min_inliers) {
+    set(TrackState::kSearching, StateReason::kPoorFit);  // the scan no longer fits as a claim needs
+  } else if (e.holding) {
+    set(TrackState::kAmbiguous, StateReason::kChallenged);
   } else if (e.rival_proven) {
     set(TrackState::kAmbiguous, StateReason::kRivalProven);
-  } else if (e.coverage < options_.min_coverage ||
-             (state_ == TrackState::kUnmapped && e.coverage < judged_coverage_)) {
-    set(TrackState::kUnmapped, StateReason::kMapCoversLittle);
   } else {
-    set(TrackState::kConverged, e.holding ? StateReason::kChallenged : StateReason::kProven);
+    set(TrackState::kConverged, StateReason::kProven);
   }
   return state_;
 }

@@ -252,7 +252,7 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
 // hypothesis_min_weight above converged_competitor_weight: a hypothesis credible enough to compete but too light to
 // keep joins the rest, and resampling must not give its emptied group particles to draw (it threw "group 2 has no
 // particles to draw from" on the first update).
-TEST(GlobalSearch, HypothesesTooLightToKeepJoinTheRest) {
+TEST(GlobalSearch, PlacesTooLightToKeepJoinTheRest) {
   const TwinWingWalk walk = twin_wing_walk();
   const auto& [map, truth, odometry, scans] = walk;
   auto eval = cpu_evaluator(map);

@@ -290,7 +290,7 @@ TEST(MotionGate, HoldsSmallMotionsAndPropagatesTheEstimate) {
 // Roughening serves a sparse belief. Started around a known pose, the belief is concentrated after its first update,
 // and its particles then move exactly as a filter's without roughening (the same draws of the same noise); started
 // spread over the room, they are roughened before they first converge.
-TEST(Roughening, StopsWhileTheDominantHypothesisHoldsTheBelief) {
+TEST(Roughening, StopsWhileTheDominantPlaceHoldsTheBelief) {
   const World& w = world();
   struct Run {
     bool concentrated = false;

@@ -224,6 +224,29 @@ TEST(PlaceLedger, ProvenAgainWhileTheBeliefStays) {
 
 TEST(PlaceLedger, NothingProvenWhileTheMapCannotJudgeTheTrack) { EXPECT_EQ(prove(false, true).proofs, 0u); }
 
+// A track carried off the map (a kidnapping): the scans judged it wrong while the map covered them, then it walked into
+// unknown space. What was counted stays counted: the rival is proven once the entry spans window_m of travel.
+TEST(PlaceLedger, EvidenceGatheredWhileMappedStaysWhenTheTrackLeavesTheMap) {
+  const TsdfMap map = twin_map(false);
+  const Walk w = walk(test::twin_wing_boxes(false));
+  Judged j(map);
+  const double against = -2.0 * LedgerOptions{}.decide_nats;
+  j.per_scan = &against;
+  double walked = 0.0;
+  std::size_t first_proof = w.truth.size();
+  for (std::size_t i = 0; i < w.truth.size(); ++i) {
+    if (i > 0) walked += w.motion(i).translation().norm();
+    std::vector<Pose> others;
+    if (i == 0) others.push_back(half_turn(w.truth[0]));
+    const bool mapped = i < 3;  // 0.6 m of judged travel: less than a proof spans
+    const PlaceLedger::Outcome out = j.step(w, i, w.truth[i], others, mapped);
+    ASSERT_EQ(out.rivals.size(), 1u) << "scan " << i;
+    if (out.proven && first_proof == w.truth.size()) first_proof = i;
+    EXPECT_EQ(out.rivals.front().proven, walked >= LedgerOptions{}.window_m) << "scan " << i;
+  }
+  EXPECT_LT(first_proof, w.truth.size());
+}
+
 // Proof needs a view, not a drift: a place favoured by a twentieth of a nat a scan sums past the threshold over a
 // long walk, but never within window_m of travel; a nat a scan proves it as soon as the entry spans window_m.
 std::size_t first_proof(double evidence_per_scan) {

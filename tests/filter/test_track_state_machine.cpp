@@ -94,11 +94,12 @@ TEST(TrackStateMachine, NeverEnteredOnAPoorFitASpreadBeliefOrBeforeTheSearch) {
 
 TEST(TrackStateMachine, ASpreadAPoorScanOrANewRivalDoNotEndIt) {
   // Once converged, the noise of single updates must not toggle the flag: a spread (the cloud widening in a turn), a
-  // scan that fits poorly for an update, a newly found look-alike the ledger has not decided.
+  // scan that fits worse for an update but still as a claim needs, a newly found look-alike the ledger has not
+  // decided.
   TrackStateMachine m(options(), SamePlace{});
   const std::vector<TrackState> s = drive(m, at(0, 0), 40, 0.2, [](int k, StateEvidence& e) {
     if (k >= 5) e.concentrated = k % 3 != 0;
-    if (k >= 5 && k % 4 == 0) e.inliers = 0.45;
+    if (k >= 5 && k % 4 == 0) e.inliers = 0.55;
     if (k >= 5 && k % 5 == 0) e.rival_undecided = true;
     if (k >= 5 && k % 7 == 0) e.second_weight = 0.3;
   });
@@ -119,8 +120,12 @@ TEST(TrackStateMachine, LeftOnlyOnEvidence) {
       {"recovery", [](int, StateEvidence& e) { e.recovery_lost = true; }, TrackState::kLost, StateReason::kRecovery},
       {"a rival proven", [](int, StateEvidence& e) { e.rival_proven = true; }, TrackState::kAmbiguous,
        StateReason::kRivalProven},
+      {"the belief moved to a challenger", [](int, StateEvidence& e) { e.holding = true; }, TrackState::kAmbiguous,
+       StateReason::kChallenged},
       {"the map covers little", [](int, StateEvidence& e) { e.coverage = 0.4; }, TrackState::kUnmapped,
        StateReason::kMapCoversLittle},
+      {"a fit under what a claim needs", [](int, StateEvidence& e) { e.inliers = 0.45; }, TrackState::kSearching,
+       StateReason::kPoorFit},
   };
   for (const Case& c : cases) {
     TrackStateMachine m(options(), SamePlace{});

@@ -8,11 +8,12 @@
 //   - refuted: the ratio reaches +decide_nats for the track (or the rival explains clearly less of the scan). A refuted
 //     place stays refuted when the search finds it again, until one scan alone favours it by decide_nats;
 //   - proven: the ratio reaches -decide_nats against the track, summed both since the rival was found and over the
-//     last `window_m` of travel, once the entry spans window_m of travel (a view seen from one spot, or a drift of
-//     thousandths a scan over hundreds of scans, proves nothing);
+//     last `window_m` of travel where the map judged the track, once the entry spans window_m of travel (a view seen
+//     from one spot, or a drift of thousandths a scan over hundreds of scans, proves nothing);
 //   - undecided in between.
 // Evidence against the track counts only where the map covers most of the track's scan: at the frontier of space the
 // map never observed, the surfaces the mapping run saw once fit worse than a mapped look-alike wherever the robot is.
+// What was counted there stays counted when the track leaves the map (a robot carried off into unmapped space).
 //
 // The filter says where the track is on each scan: the belief's dominant place where it continues the track or where
 // the track still follows the belief (before the filter first converges), else the track's own continuation, refined
@@ -100,7 +101,7 @@ class PlaceLedger {
   struct Rival {
     Pose relative;          // place = relative * track
     double evidence = 0.0;  // for the track since it was found
-    std::deque<std::pair<double, double>> recent;  // (travel_ when taken, evidence) over the last window_m
+    std::deque<std::pair<double, double>> recent;  // (judged_travel_ when taken, evidence) over the last window_m
     double found_at = 0.0;                         // travel_ when found (or when its ratio started over)
     double window() const;
   };
@@ -126,8 +127,8 @@ class PlaceLedger {
   Refine refine_;
   bool started_ = false;
   Pose track_ = Pose::Identity();
-  double travel_ = 0.0;      // m of odometry since the reset
-  bool track_mapped_ = true;  // this update's Input::track_mapped: no proof against a track the map cannot judge
+  double travel_ = 0.0;         // m of odometry since the reset
+  double judged_travel_ = 0.0;  // of which the map covered most of the track's scan
   std::size_t failing_ = 0;  // updates in a row the track failed on its own while holding
   std::vector<Rival> rivals_;
   std::vector<Pose> refuted_;  // relative to the track

@@ -136,7 +136,15 @@ class PoseEstimator {
   void join_neighbour_cells();
   // The components by weight: the heaviest max_places ranked (root_rank_); returns how many, `modes` all.
   std::size_t rank_components(std::size_t* modes);
-  // Hypotheses 0..k-1 (the heaviest components, ranked) from their particles.
+  // The weighted sums of each of the k places' particles (the first pass of describe()).
+  struct Moments {
+    double weight = 0.0;
+    std::size_t particles = 0;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    Eigen::Matrix4d rotation = Eigen::Matrix4d::Zero();  // sum w q q^T (Markley's mean)
+  };
+  std::vector<Moments> moments(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k) const;
+  // Places 0..k-1 (the heaviest components, ranked) from their particles.
   std::vector<Place> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
                                    double total) const;
   PoseEstimateOptions options_;

@@ -13,11 +13,14 @@
 //     held over travel_after_change_m of odometry: the search that chose wrong once may choose a look-alike again.
 // Left only when:
 //   - the fit at the track is implausible where the map covers its scan, or recovery moves most of the belief: lost;
-//   - the ledger proves a rival better than the track, or takes a challenger: ambiguous (a change of mind);
+//   - the belief moved to a challenger (its heaviest place lies elsewhere: the evidence between places moved it), the
+//     ledger proves a rival better than the track, or takes a challenger: ambiguous;
 //   - the map covers less than min_coverage of the scan at the track: unmapped, and converged again once it covers
-//     most of the scan (the share at which the fit judges a track, PlaceOptions::most_of_the_scan).
-// A spread, a dip of the fit or a newly found look-alike does not end it: the ledger weighs a look-alike, and the
-// claim ends when the evidence proves it.
+//     most of the scan (the share at which the fit judges a track, PlaceOptions::most_of_the_scan);
+//   - the map covers the scan but it fits the track worse than a claim needs (inlier ratio under min_inliers: a robot
+//     carried elsewhere, before the evidence between places has spoken): searching, and claimed again as at first.
+// A spread, a dip of the fit within what a claim needs or a newly found look-alike does not end it: the ledger weighs
+// a look-alike, and the claim ends when the evidence proves it or the belief leaves the track for it.
 #include <cstddef>
 
 #include "tsdf_mcl/core/pose.hpp"
