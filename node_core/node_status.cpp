@@ -29,7 +29,7 @@ void LocalizationCore::publish(Stamp stamp, const ScanRecord& record, double upd
   PosesOut hypotheses;
   hypotheses.stamp = stamp;
   hypotheses.frame_id = settings_.global_frame_id;
-  for (const Hypothesis& h : e.hypotheses) {
+  for (const Place& h : e.places) {
     hypotheses.poses.push_back(h.pose);
     hypotheses.weights.push_back(h.weight);
   }
@@ -89,8 +89,8 @@ void LocalizationCore::publish_status(Stamp stamp, const ScanRecord& record, dou
                                       : DiagnosticOut::kWarn;
   status.message = state;
   status.values = {{"state", state},
-                   {"reason", state_reason(record.step, localizer_->options())},
-                   {"hypotheses", hypotheses_text(e.hypotheses)},
+                   {"reason", state_reason(record.step)},
+                   {"hypotheses", places_text(e.places)},
                    {"update_ms", number(update_ms)},
                    {"scan_period_ms", number(1000.0 * scan_period_)},
                    {"processed_scans", std::to_string(counters_.processed)},
@@ -101,8 +101,9 @@ void LocalizationCore::publish_status(Stamp stamp, const ScanRecord& record, dou
   status.values.emplace_back("particles", std::to_string(record.step.particles));
   status.values.emplace_back("inlier_ratio", number(e.inlier_ratio));
   status.values.emplace_back("map_coverage", number(e.coverage));
-  // Places the scans have not told from the track (look_alikes.hpp): while any is listed, `converged` waits.
-  status.values.emplace_back("look_alikes", places_text(record.step.look_alikes));
+  // Places the ledger has not told from the track (place_ledger.hpp): while any is listed, `converged` is not entered
+  // (a converged track keeps it until a rival is proven better).
+  status.values.emplace_back("rivals", positions_text(record.step.rivals));
   status.values.emplace_back("extrinsic", last_extrinsic_source_);  // tf, or the sensor_extrinsics parameter
   status.values.emplace_back("backend", localizer_->evaluator().backend());
   out_.publish_diagnostics(status);

@@ -15,7 +15,7 @@ double yaw_deg(const Pose& p) {
 }
 
 double best_share(const FilterStep& step) {
-  return step.estimate.hypotheses.empty() ? 0.0 : step.estimate.hypotheses.front().weight;
+  return step.estimate.places.empty() ? 0.0 : step.estimate.places.front().weight;
 }
 
 }  // namespace
@@ -49,10 +49,10 @@ PosesOut decimated_particles(const ParticleSnapshot& snapshot, std::size_t max_p
   return out;
 }
 
-std::string hypotheses_text(const std::vector<Hypothesis>& hypotheses) {
+std::string places_text(const std::vector<Place>& places) {
   std::string text;
-  for (std::size_t i = 0; i < hypotheses.size() && i < 5; ++i) {
-    const Hypothesis& h = hypotheses[i];
+  for (std::size_t i = 0; i < places.size() && i < 5; ++i) {
+    const Place& h = places[i];
     const Eigen::Vector3d t = h.pose.translation();
     text += format("%s%.0f %% at (%.2f, %.2f, %.2f, yaw %.0f deg)", i ? "; " : "", 100.0 * h.weight, t.x(), t.y(),
                    t.z(), yaw_deg(h.pose));
@@ -60,7 +60,7 @@ std::string hypotheses_text(const std::vector<Hypothesis>& hypotheses) {
   return text;
 }
 
-std::string places_text(const std::vector<Pose>& places) {
+std::string positions_text(const std::vector<Pose>& places) {
   std::string text;
   for (const Pose& p : places) {
     text += format("%s(%.2f, %.2f, %.2f)", text.empty() ? "" : "; ", p.translation().x(), p.translation().y(),
@@ -69,36 +69,14 @@ std::string places_text(const std::vector<Pose>& places) {
   return text;
 }
 
-std::string state_reason(const FilterStep& step, const LocalizerOptions& options) {
+std::string state_reason(const FilterStep& step) {
+  // The filter's reason (track_state.hpp), then the numbers it decided on.
   const PoseEstimate& e = step.estimate;
-  const double needed = options.filter.convergence.min_inlier_ratio;
-  const std::size_t places = e.hypotheses.size();
-  switch (step.state) {
-    case TrackState::kSearching:
-      if (places == 0) return "global search: no place found yet";
-      return format("global search: %zu places, the best holds %.0f %% of the belief", places,
-                    100.0 * best_share(step));
-    case TrackState::kTracking:
-      return format(
-          "following the track: the best place holds %.0f %%, %.0f %% of the scan fits (converged needs "
-          "%.0f %% and one place)",
-          100.0 * best_share(step), 100.0 * e.inlier_ratio, 100.0 * needed);
-    case TrackState::kAmbiguous:
-      if (!step.look_alikes.empty()) {
-        return format("%zu look-alike places not yet told from the track by the scans", step.look_alikes.size());
-      }
-      return format("%zu places explain the scans; the best holds %.0f %% of the belief", places,
-                    100.0 * best_share(step));
-    case TrackState::kConverged:
-      return format("one place holds %.0f %% of the belief and %.0f %% of the scan fits the map there",
-                    100.0 * best_share(step), 100.0 * e.inlier_ratio);
-    case TrackState::kUnmapped:
-      return format("the map covers %.0f %% of the scan here: odometry carries the pose", 100.0 * e.coverage);
-    case TrackState::kLost:
-      return format("%.0f %% of the scan fits the map at the track (converged needs %.0f %%): searching the map again",
-                    100.0 * e.inlier_ratio, 100.0 * needed);
-  }
-  return "";
+  std::string text = to_string(step.reason);
+  if (!step.rivals.empty()) text += format(" (%zu followed)", step.rivals.size());
+  return text + format("; %zu places, the best holds %.0f %% of the belief; %.0f %% of the scan fits, the map covers "
+                       "%.0f %%",
+                       e.places.size(), 100.0 * best_share(step), 100.0 * e.inlier_ratio, 100.0 * e.coverage);
 }
 
 }  // namespace tsdf_mcl::node

@@ -1,7 +1,7 @@
 #pragma once
 // What the core's pose, particle and status messages hold, as plain functions of the filter's step (tested alone,
-// without a transport): the covariance in ROS's convention, the decimated particles, the hypotheses and look-alikes
-// as text, and the reason for the state.
+// without a transport): the covariance in ROS's convention, the decimated particles, the places and rivals as text,
+// and the reason for the state.
 #include <array>
 #include <string>
 #include <vector>
@@ -21,14 +21,13 @@ std::array<double, 36> fixed_frame_covariance(const Pose& mean, const Matrix6d& 
 PosesOut decimated_particles(const ParticleSnapshot& snapshot, std::size_t max_particles, Stamp stamp,
                              const std::string& frame_id);
 
-// "55 % at (1.00, 2.00, 0.50, yaw 90 deg); 45 % at ..." for the best five.
-std::string hypotheses_text(const std::vector<Hypothesis>& hypotheses);
+// "55 % at (1.00, 2.00, 0.50, yaw 90 deg); 45 % at ..." for the best five places.
+std::string places_text(const std::vector<Place>& places);
 // "(1.00, 2.00, 0.50); (...)".
-std::string places_text(const std::vector<Pose>& places);
+std::string positions_text(const std::vector<Pose>& places);
 
-// Why the filter is in its state, in one line from the numbers it decided on: how many places and their shares while
-// searching or ambiguous, the look-alikes not yet told apart, the dominant share and fit when converged, the map
-// coverage when unmapped, the fit below what convergence needs when lost.
-std::string state_reason(const FilterStep& step, const LocalizerOptions& options);
+// Why the filter is in its state, in one line: the filter's reason (track_state.hpp), the rivals the ledger follows,
+// the places and the best one's share, the fit and the map's coverage.
+std::string state_reason(const FilterStep& step);
 
 }  // namespace tsdf_mcl::node

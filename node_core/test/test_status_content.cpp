@@ -37,39 +37,37 @@ TEST(StatusContent, ParticlesAreDecimatedToTheCap) {
   EXPECT_EQ(decimated_particles(snapshot, 100, Stamp{5}, "map").poses.size(), 10u);
 }
 
+// The filter's reason, the rivals it follows, the places with the best one's share, the fit and the coverage.
 TEST(StatusContent, EachStateSaysWhy) {
-  LocalizerOptions options;
-  options.filter.convergence.min_inlier_ratio = 0.5;
   FilterStep step;
   step.state = TrackState::kSearching;
-  EXPECT_EQ(state_reason(step, options), "global search: no place found yet");
-  Hypothesis a, b;
+  step.reason = StateReason::kSpread;
+  EXPECT_EQ(state_reason(step),
+            "no compact place holds the belief; 0 places, the best holds 0 % of the belief; 0 % of the scan fits, the "
+            "map covers 0 %");
+  Place a, b;
   a.weight = 0.55;
   b.weight = 0.45;
   b.pose = pose_from_xyz_rpy(10, 0, 0, 0, 0, M_PI);
-  step.estimate.hypotheses = {a, b};
+  step.estimate.places = {a, b};
   step.estimate.inlier_ratio = 0.9;
   step.estimate.coverage = 0.25;
-  EXPECT_EQ(state_reason(step, options), "global search: 2 places, the best holds 55 % of the belief");
   step.state = TrackState::kAmbiguous;
-  EXPECT_EQ(state_reason(step, options), "2 places explain the scans; the best holds 55 % of the belief");
-  step.look_alikes = {b.pose};
-  EXPECT_EQ(state_reason(step, options), "1 look-alike places not yet told from the track by the scans");
-  step.state = TrackState::kConverged;
-  EXPECT_EQ(state_reason(step, options), "one place holds 55 % of the belief and 90 % of the scan fits the map there");
+  step.reason = StateReason::kRivalUndecided;
+  step.rivals = {b.pose};
+  EXPECT_EQ(state_reason(step),
+            "a look-alike not yet refuted (1 followed); 2 places, the best holds 55 % of the belief; 90 % of the scan "
+            "fits, the map covers 25 %");
   step.state = TrackState::kUnmapped;
-  EXPECT_EQ(state_reason(step, options), "the map covers 25 % of the scan here: odometry carries the pose");
-  step.state = TrackState::kLost;
-  step.estimate.inlier_ratio = 0.2;
-  EXPECT_EQ(state_reason(step, options),
-            "20 % of the scan fits the map at the track (converged needs 50 %): searching "
-            "the map again");
-  step.state = TrackState::kTracking;
-  EXPECT_EQ(state_reason(step, options),
-            "following the track: the best place holds 55 %, 20 % of the scan fits "
-            "(converged needs 50 % and one place)");
-  EXPECT_EQ(hypotheses_text(step.estimate.hypotheses),
+  step.reason = StateReason::kMapCoversLittle;
+  step.rivals.clear();
+  EXPECT_EQ(state_reason(step),
+            "the map covers too little of the scan; 2 places, the best holds 55 % of the belief; 90 % of the scan "
+            "fits, the map covers 25 %");
+  EXPECT_EQ(places_text(step.estimate.places),
             "55 % at (0.00, 0.00, 0.00, yaw 0 deg); 45 % at (10.00, 0.00, 0.00, yaw 180 deg)");
+  EXPECT_EQ(positions_text(step.rivals), "");
+  EXPECT_EQ(positions_text({b.pose, a.pose}), "(10.00, 0.00, 0.00); (0.00, 0.00, 0.00)");
 }
 
 }  // namespace

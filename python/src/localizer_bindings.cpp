@@ -1,4 +1,4 @@
-// Localizer: the library's streaming Localizer on a Map, fed numpy scans; Result, Hypothesis.
+// Localizer: the library's streaming Localizer on a Map, fed numpy scans; Result, Place.
 #include <pybind11/stl.h>
 
 #include <chrono>
@@ -19,7 +19,7 @@
 namespace tsdf_mcl::python {
 namespace {
 
-struct PyHypothesis {
+struct PyPlace {
   Pose pose = Pose::Identity();
   Matrix6d covariance = Matrix6d::Zero();
   double weight = 0.0, std_position = 0.0, std_rotation = 0.0, inlier_ratio = 0.0;
@@ -31,17 +31,18 @@ struct PyResult {
   double time = 0.0;
   std::uint64_t index = 0;
   std::string state;
+  std::string reason;  // why the state is what it is
   double coverage = 0.0;  // share of the scan's points with map evidence at the estimate
   bool updated = false, resampled = false, converged = false;
-  PyHypothesis estimate;
-  std::vector<PyHypothesis> hypotheses;
+  PyPlace estimate;
+  std::vector<PyPlace> places;
   std::size_t particles = 0, next_particles = 0, injected = 0;
   double ess = 0.0;
   std::map<std::string, std::size_t> points;
   std::map<std::string, double> timings;
 };
 
-PyHypothesis hypothesis_of(const Hypothesis& h) {
+PyPlace place_of(const Place& h) {
   return {h.pose, h.covariance, h.weight, h.std_position, h.std_rotation, h.inlier_ratio, h.particles};
 }
 
@@ -52,13 +53,14 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   out.time = r.time;
   out.index = r.index;
   out.state = to_string(s.state);  // the filter's own classification (track_state.hpp)
+  out.reason = to_string(s.reason);
   out.coverage = e.coverage;
   out.updated = s.updated;
   out.resampled = s.resampled;
   out.converged = e.converged;
   out.estimate = {e.pose,         e.covariance,   e.mode_weight,   e.std_position,
                   e.std_rotation, e.inlier_ratio, e.mode_particles};
-  for (const Hypothesis& h : e.hypotheses) out.hypotheses.push_back(hypothesis_of(h));
+  for (const Place& h : e.places) out.places.push_back(place_of(h));
   out.particles = s.particles;
   out.next_particles = s.next_particles;
   out.injected = s.injected;
@@ -72,8 +74,11 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   out.timings = {{"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},
                  {"upload_ms", t.upload_ms},         {"weight_ms", t.weight_ms},
                  {"weight_gpu_ms", t.weight_gpu_ms}, {"reduce_gpu_ms", t.reduce_gpu_ms},
-                 {"reduce_ms", t.reduce_ms},         {"resample_ms", t.resample_ms},
-                 {"update_ms", t.total_ms},          {"process_ms", process_ms}};
+                 {"walls_ms", t.walls_ms},           {"own_points_ms", t.own_points_ms},
+                 {"tempering_ms", t.tempering_ms},   {"places_ms", t.places_ms},
+                 {"ledger_ms", t.ledger_ms},         {"decision_ms", t.decision_ms},
+                 {"resample_ms", t.resample_ms},     {"update_ms", t.total_ms},
+                 {"process_ms", process_ms}};
   return out;
 }
 
@@ -225,20 +230,20 @@ class PyLocalizer {
 };
 
 void register_results(py::module_& m) {
-  py::class_<PyHypothesis>(m, "Hypothesis", "A mode of the belief")
+  py::class_<PyPlace>(m, "Place", "A place of the belief (one of its modes)")
       .def_property_readonly(
-          "pose", [](const PyHypothesis& h) { return matrix_array(h.pose); }, "4x4 world_T_sensor")
+          "pose", [](const PyPlace& h) { return matrix_array(h.pose); }, "4x4 world_T_sensor")
       .def_property_readonly(
-          "covariance", [](const PyHypothesis& h) { return matrix_array(h.covariance); },
+          "covariance", [](const PyPlace& h) { return matrix_array(h.covariance); },
           "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
-      .def_readonly("weight", &PyHypothesis::weight, "share of the belief")
-      .def_readonly("particles", &PyHypothesis::particles)
-      .def_readonly("std_position", &PyHypothesis::std_position, "m")
-      .def_readonly("std_rotation", &PyHypothesis::std_rotation, "rad")
-      .def_readonly("inlier_ratio", &PyHypothesis::inlier_ratio)
-      .def("__repr__", [](const PyHypothesis& h) {
+      .def_readonly("weight", &PyPlace::weight, "share of the belief")
+      .def_readonly("particles", &PyPlace::particles)
+      .def_readonly("std_position", &PyPlace::std_position, "m")
+      .def_readonly("std_rotation", &PyPlace::std_rotation, "rad")
+      .def_readonly("inlier_ratio", &PyPlace::inlier_ratio)
+      .def("__repr__", [](const PyPlace& h) {
         const Eigen::Vector3d t = h.pose.translation();
-        return "<Hypothesis " + std::to_string(100.0 * h.weight) + " % at (" + std::to_string(t.x()) + ", " +
+        return "<Place " + std::to_string(100.0 * h.weight) + " % at (" + std::to_string(t.x()) + ", " +
                std::to_string(t.y()) + ", " + std::to_string(t.z()) + ")>";
       });
 
@@ -246,8 +251,9 @@ void register_results(py::module_& m) {
       .def_readonly("time", &PyResult::time)
       .def_readonly("index", &PyResult::index, "the scan's number in this run")
       .def_readonly("state", &PyResult::state,
-                    "searching, tracking, ambiguous, converged, unmapped (tracking through space the map never "
-                    "observed) or lost")
+                    "searching, ambiguous, converged, unmapped (a converged track carried through space the map "
+                    "does not cover) or lost")
+      .def_readonly("reason", &PyResult::reason, "why the state is what it is")
       .def_readonly("coverage", &PyResult::coverage,
                     "map coverage: share of the scan's points with map evidence at the estimate")
       .def_readonly("converged", &PyResult::converged)
@@ -260,7 +266,7 @@ void register_results(py::module_& m) {
           "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
       .def_property_readonly("mode_weight", [](const PyResult& r) { return r.estimate.weight; })
       .def_property_readonly("inlier_ratio", [](const PyResult& r) { return r.estimate.inlier_ratio; })
-      .def_readonly("hypotheses", &PyResult::hypotheses, "the heaviest modes, heaviest first")
+      .def_readonly("places", &PyResult::places, "the belief's places (its heaviest modes), heaviest first")
       .def_readonly("particles", &PyResult::particles, "particles weighted in this update")
       .def_readonly("next_particles", &PyResult::next_particles)
       .def_readonly("injected", &PyResult::injected, "random particles from recovery")

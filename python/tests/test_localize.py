@@ -48,7 +48,7 @@ def test_same_run_as_the_cli(scene, cli, tmp_path):
     assert m["after_convergence"]["ate_rmse_m"] < 0.1
     assert m["false_convergence"]["false_claims"] == cli_metrics["false_convergence"]["false_claims"] == 0
     assert results[-1].state == "converged"
-    assert results[-1].hypotheses[0].weight > 0.5
+    assert results[-1].places[0].weight > 0.5
     summary = loc.summary()
     assert summary["scans"] == 16 and summary["converged"]
 

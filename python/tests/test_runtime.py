@@ -55,7 +55,7 @@ def test_no_reference_leak_over_1000_calls(scene):
     def calls(n):
         for k in range(n):
             r = loc.process(points, odom, stamp + 0.01 * k)
-            r.estimate, r.covariance, r.hypotheses, r.timings, r.points
+            r.estimate, r.covariance, r.places, r.timings, r.points
             m.distance(points)
             loc.particles()
         try:

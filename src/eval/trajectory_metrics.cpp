@@ -137,4 +137,36 @@ TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& estimate, 
   return m;
 }
 
+double FlagStability::flagged_share() const {
+  return right_scans > 0 ? static_cast<double>(right_flagged) / static_cast<double>(right_scans)
+                         : std::numeric_limits<double>::quiet_NaN();
+}
+
+double FlagStability::changes_per_minute() const {
+  return minutes > 0.0 ? static_cast<double>(flag_changes) / minutes : std::numeric_limits<double>::quiet_NaN();
+}
+
+FlagStability flag_stability(const TrajectoryMetrics& m, const std::vector<bool>& claims,
+                             const std::vector<std::string>* states) {
+  if (claims.size() != m.errors.size() || (states && states->size() != m.errors.size())) {
+    throw Error("evaluate: one converged flag and state per estimate needed");
+  }
+  FlagStability f;
+  if (m.claimed_converged == 0) return f;
+  const std::size_t first = m.first_claim_index;
+  f.minutes = (m.errors.back().time - m.errors[first].time) / 60.0;
+  for (std::size_t i = first; i < m.errors.size(); ++i) {
+    if (i > first && claims[i] != claims[i - 1]) ++f.flag_changes;
+    if (!m.errors[i].localized) continue;
+    ++f.right_scans;
+    if (claims[i]) {
+      ++f.right_flagged;
+    } else if (states) {
+      ++f.unflagged_right_states[(*states)[i]];
+    }
+    if (states && (*states)[i] == "lost") ++f.lost_while_right;
+  }
+  return f;
+}
+
 }  // namespace tsdf_mcl

@@ -35,7 +35,7 @@ void PoseEstimateOptions::validate() const {
   if (!(converged_weight >= 0.0 && converged_weight <= 1.0)) throw Error("converged_weight must lie in [0, 1]");
   if (!(converged_std_xyz > 0.0)) throw Error("converged_std_xyz must be positive");
   if (!(converged_std_angle > 0.0)) throw Error("converged_std_angle must be positive");
-  if (max_hypotheses == 0) throw Error("max_hypotheses must be at least 1");
+  if (max_places == 0) throw Error("max_places must be at least 1");
   if (!(min_relative_weight >= 0.0 && min_relative_weight < 1.0))
     throw Error("pose estimate: min_relative_weight must lie in [0, 1)");
 }
@@ -102,7 +102,7 @@ double largest_std(const Eigen::Matrix3d& m) {
 
 }  // namespace
 
-std::int32_t PoseEstimator::hypothesis_of(std::size_t i) const {
+std::int32_t PoseEstimator::place_of(std::size_t i) const {
   if (i >= particle_cell_.size() || particle_cell_[i] == kNoCell) return -1;
   return root_rank_[parent_[particle_cell_[i]]];
 }
@@ -125,8 +125,8 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   join_neighbour_cells();
   PoseEstimate e;
   const std::size_t k = rank_components(&e.modes);
-  e.hypotheses = describe(p, w, n, k, total);
-  e.converged = take_dominant_hypothesis(e, options_);
+  e.places = describe(p, w, n, k, total);
+  e.converged = take_dominant_place(e, options_);
   if (options_.best_particle) {
     e.pose.linear() = p.rotation(best).cast<double>().normalized().toRotationMatrix();
     e.pose.translation() = p.position(best).cast<double>();
@@ -240,8 +240,8 @@ std::size_t PoseEstimator::rank_components(std::size_t* modes) {
   }
   for (std::uint32_t c = 0; c < cells; ++c) parent_[c] = find(c);  // flat: parent_ is now the root
   *modes = roots.size();
-  // The heaviest components become hypotheses (ties: the lower cell, for determinism).
-  const std::size_t k = std::min(options_.max_hypotheses, roots.size());
+  // The heaviest components become places (ties: the lower cell, for determinism).
+  const std::size_t k = std::min(options_.max_places, roots.size());
   std::partial_sort(roots.begin(), roots.begin() + static_cast<std::ptrdiff_t>(k), roots.end(),
                     [&](std::uint32_t a, std::uint32_t b) {
                       return root_weight_[a] > root_weight_[b] || (root_weight_[a] == root_weight_[b] && a < b);
@@ -251,11 +251,11 @@ std::size_t PoseEstimator::rank_components(std::size_t* modes) {
   return k;
 }
 
-bool take_dominant_hypothesis(PoseEstimate& e, const PoseEstimateOptions& o) { return take_hypothesis(e, 0, o); }
+bool take_dominant_place(PoseEstimate& e, const PoseEstimateOptions& o) { return take_place(e, 0, o); }
 
-std::size_t estimate_place(const std::vector<Hypothesis>& h, const Pose& prediction, double switch_ratio,
+std::size_t estimate_place(const std::vector<Place>& h, const Pose& prediction, double switch_ratio,
                            double max_jump_m, double max_jump_rad) {
-  const auto continues = [&](const Hypothesis& place) {
+  const auto continues = [&](const Place& place) {
     return (place.pose.translation() - prediction.translation()).norm() <= max_jump_m &&
            rotation_angle_between(place.pose.linear(), prediction.linear()) <= max_jump_rad;
   };
@@ -266,9 +266,9 @@ std::size_t estimate_place(const std::vector<Hypothesis>& h, const Pose& predict
   return 0;
 }
 
-bool take_hypothesis(PoseEstimate& e, std::size_t index, const PoseEstimateOptions& o) {
-  if (index >= e.hypotheses.size()) throw Error("pose estimate: no hypothesis to take");
-  const Hypothesis& top = e.hypotheses[index];
+bool take_place(PoseEstimate& e, std::size_t index, const PoseEstimateOptions& o) {
+  if (index >= e.places.size()) throw Error("pose estimate: no place to take");
+  const Place& top = e.places[index];
   if (!o.best_particle) e.pose = top.pose;
   e.covariance = top.covariance;
   e.mode_weight = top.weight;
@@ -281,24 +281,16 @@ bool take_hypothesis(PoseEstimate& e, std::size_t index, const PoseEstimateOptio
   return top.weight >= o.converged_weight && compact(top, o);
 }
 
-std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
-                                                double total) const {
-  // Two passes over the particles for all k hypotheses at once (means, then covariances), in parallel over
-  // fixed chunks of particles whose sums are added in chunk order: the result does not depend on the threads.
+std::vector<PoseEstimator::Moments> PoseEstimator::moments(const ParticleArrays& p, const double* w, std::size_t n,
+                                                           std::size_t k) const {
   const std::size_t chunks = (n + kDescribeChunk - 1) / kDescribeChunk;
-  struct Moments {
-    double weight = 0.0;
-    std::size_t particles = 0;
-    Eigen::Vector3d position = Eigen::Vector3d::Zero();
-    Eigen::Matrix4d rotation = Eigen::Matrix4d::Zero();  // sum w q q^T (Markley's mean)
-  };
   std::vector<Moments> part(chunks * k);
 #pragma omp parallel for schedule(static) if (n >= kParallelParticles)
   for (std::ptrdiff_t c = 0; c < static_cast<std::ptrdiff_t>(chunks); ++c) {
     Moments* sums = &part[static_cast<std::size_t>(c) * k];
     const std::size_t end = std::min(n, (static_cast<std::size_t>(c) + 1) * kDescribeChunk);
     for (std::size_t i = static_cast<std::size_t>(c) * kDescribeChunk; i < end; ++i) {
-      const std::int32_t r = hypothesis_of(i);
+      const std::int32_t r = place_of(i);
       if (r < 0) continue;
       Moments& m = sums[static_cast<std::size_t>(r)];
       const Eigen::Quaternionf q = p.rotation(i);
@@ -309,7 +301,6 @@ std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const d
       ++m.particles;
     }
   }
-  std::vector<Hypothesis> h(k);
   std::vector<Moments> sum(k);
   for (std::size_t c = 0; c < chunks; ++c) {
     for (std::size_t r = 0; r < k; ++r) {
@@ -320,6 +311,16 @@ std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const d
       sum[r].particles += m.particles;
     }
   }
+  return sum;
+}
+
+std::vector<Place> PoseEstimator::describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
+                                           double total) const {
+  // Two passes over the particles for all k places at once (means, then covariances), in parallel over fixed chunks
+  // of particles whose sums are added in chunk order: the result does not depend on the threads.
+  const std::size_t chunks = (n + kDescribeChunk - 1) / kDescribeChunk;
+  const std::vector<Moments> sum = moments(p, w, n, k);
+  std::vector<Place> h(k);
   std::vector<Eigen::Vector3d> mean_position(k);
   std::vector<Eigen::Quaterniond> inverse_mean(k);
   for (std::size_t r = 0; r < k; ++r) {
@@ -336,7 +337,7 @@ std::vector<Hypothesis> PoseEstimator::describe(const ParticleArrays& p, const d
     Matrix6d* cov = &cov_part[static_cast<std::size_t>(c) * k];
     const std::size_t end = std::min(n, (static_cast<std::size_t>(c) + 1) * kDescribeChunk);
     for (std::size_t i = static_cast<std::size_t>(c) * kDescribeChunk; i < end; ++i) {
-      const std::int32_t r = hypothesis_of(i);
+      const std::int32_t r = place_of(i);
       if (r < 0) continue;
       const auto rank = static_cast<std::size_t>(r);
       Eigen::Matrix<double, 6, 1> d;

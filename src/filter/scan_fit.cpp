@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "tsdf_mcl/sensor/endpoint_kernel.hpp"
 #include "tsdf_mcl/sensor/sensor_evaluator.hpp"
@@ -59,12 +60,41 @@ struct Ray {
     return nearer != TsdfMap::kUnknownValue && nearer > v + front_rise;
   }
 
+  // Where (m along the ray) the ray leaves the block that holds `at`, if that block is all unknown (no block of the
+  // map's pool there, or space beyond the map's box); `s` otherwise. Nothing in such a block can stop the march, and a
+  // voxel at a time through it is most of a ray's cost where the map is sparse (open air, a room the map lacks).
+  float past_unknown_block(const Eigen::Vector3f& at, float s) const {
+    std::int32_t r[3];
+    bool inside_box = true;
+    for (int a = 0; a < 3; ++a) {
+      r[a] = kernel::floor_int(at[a] + 0.5f) - view.min_voxel[a];
+      inside_box = inside_box && r[a] >= 0 && static_cast<std::uint32_t>(r[a]) < view.dims_voxels[a];
+    }
+    if (inside_box) {
+      const std::uint32_t cell = (static_cast<std::uint32_t>(r[0]) >> 3) +
+                                 view.dims_blocks[0] * ((static_cast<std::uint32_t>(r[1]) >> 3) +
+                                                        view.dims_blocks[1] * (static_cast<std::uint32_t>(r[2]) >> 3));
+      if (view.coarse[cell] != TsdfMap::kUnknownBlock) return s;
+    }
+    float exit = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      if (direction[a] == 0.0f) continue;
+      const std::int32_t first = (r[a] >> 3) * TsdfMap::kBlockSize;  // arithmetic shift: floor for negatives too
+      const float low = static_cast<float>(first + view.min_voxel[a]) - 0.5f;
+      const float bound = direction[a] > 0.0f ? low + static_cast<float>(TsdfMap::kBlockSize) : low;
+      exit = std::min(exit, (bound - origin[a]) / direction[a]);
+    }
+    // Just past the face, so that the next sample lies in the next block.
+    return std::isfinite(exit) ? std::max(s, exit + 0.01f * voxel) : s;
+  }
+
   // Whether the ray goes through a surface it entered from the front before `stop` (m). Sets *met_surface if it
   // met the inside of one on its way: then an endpoint in unknown space lies behind a surface the map has, and is
   // a miss, not unobserved.
   bool passes_through(float stop, bool* met_surface) const {
     // Sphere tracing in metres along the ray: the map's distance (a lower bound on the way to a surface, up to
-    // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise.
+    // the projective TSDF's errors, hence the factor) where known and positive, a voxel otherwise, a block at a time
+    // where the map holds none.
     bool inside = false;      // in a negative region since the last sample
     bool from_front = false;  // ... which the ray entered from the front
     for (float s = 0.0f; s < stop;) {
@@ -72,7 +102,9 @@ struct Ray {
       const std::int32_t v = value_at(at);
       if (v == TsdfMap::kUnknownValue || v >= 0) {
         inside = false;
-        s += v == TsdfMap::kUnknownValue ? voxel : std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
+        s = v == TsdfMap::kUnknownValue
+                ? std::max(s + voxel, past_unknown_block(at, s))
+                : s + std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
         continue;
       }
       if (!inside) from_front = entered_from_front(at, v);
@@ -187,6 +219,28 @@ PointEvidence point_evidence(const TsdfMap& map, const EndpointModel& model, con
   return e;
 }
 
+namespace {
+
+// An endpoint in unknown space is a miss where its ray went into a surface the map holds and on beyond its band. Where
+// the ray was in observed free space within the band's depth before it (a positive distance, before any voxel deep
+// inside a surface), the endpoint sits in a hole of a surface the map saw only at a grazing angle (a skipped room's
+// ceiling seen through its door: the surface's own voxels unknown, those beside them known), or where the observed
+// free space ends. The map cannot say whether a surface is there.
+bool in_a_hole(const kernel::MapView& view, const float g[3], const Eigen::Vector3f& direction, float range,
+               float voxel, float truncation, std::int32_t near_surface) {
+  if (kernel::sample_nearest(view, g) != TsdfMap::kUnknownValue) return false;
+  for (float back = voxel; back <= truncation + 0.5f * voxel && back < range; back += voxel) {
+    const float h[3] = {g[0] - back * direction.x(), g[1] - back * direction.y(), g[2] - back * direction.z()};
+    const std::int32_t v = kernel::sample_nearest(view, h);
+    if (v == TsdfMap::kUnknownValue) continue;
+    if (v <= -near_surface) return false;
+    if (v > 0) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points,
                                  float reach, std::vector<std::uint8_t>& observed) {
   if (points.empty() || map.empty() || !(reach > 0.0f)) return 0;
@@ -215,24 +269,7 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
       }
       return false;
     };
-    // An endpoint in unknown space is a miss where its ray went into a surface the map holds and on beyond its band.
-    // Where the ray was in observed free space within the band's depth before it (a positive distance, before any
-    // voxel deep inside a surface), the endpoint sits in a hole of a surface the map saw only at a grazing angle (a
-    // skipped room's ceiling seen through its door: the surface's own voxels unknown, those beside them known), or
-    // where the observed free space ends. The map cannot say whether a surface is there.
-    bool frontier = false;
-    if (kernel::sample_nearest(view, g) == TsdfMap::kUnknownValue) {
-      for (float back = voxel; back <= truncation + 0.5f * voxel && back < range; back += voxel) {
-        const float h[3] = {g[0] - back * direction.x(), g[1] - back * direction.y(), g[2] - back * direction.z()};
-        const std::int32_t v = kernel::sample_nearest(view, h);
-        if (v == TsdfMap::kUnknownValue) continue;
-        if (v <= -near_surface) break;
-        if (v > 0) {
-          frontier = true;
-          break;
-        }
-      }
-    }
+    bool frontier = in_a_hole(view, g, direction, range, voxel, truncation, near_surface);
     for (int a = 0; a < 3 && !frontier; ++a) {
       for (const float sign : {-1.0f, 1.0f}) {
         float at[3] = {g[0], g[1], g[2]};
@@ -272,51 +309,88 @@ WallTilt select_walls(const std::vector<Eigen::Vector3f>& normals, const Pose& w
   return walls;
 }
 
+namespace {
+
+// The map's distance at grid position g (trilinear, renormalized over the known corners as kernel::sample_trilinear)
+// and its gradient (per grid unit), from one read of the cell's eight corners; false where they are all unknown.
+bool distance_and_gradient(const kernel::MapView& view, const float g[3], float* distance, Eigen::Vector3f* gradient) {
+  const std::int32_t ix = kernel::floor_int(g[0]), iy = kernel::floor_int(g[1]), iz = kernel::floor_int(g[2]);
+  const float f[3] = {g[0] - static_cast<float>(ix), g[1] - static_cast<float>(iy), g[2] - static_cast<float>(iz)};
+  float weight = 0.0f, sum = 0.0f;
+  Eigen::Vector3f d_weight = Eigen::Vector3f::Zero(), d_sum = Eigen::Vector3f::Zero();
+  for (int corner = 0; corner < 8; ++corner) {
+    const int c[3] = {corner & 1, (corner >> 1) & 1, (corner >> 2) & 1};
+    const std::int32_t q = view.fetch(ix + c[0], iy + c[1], iz + c[2]);
+    if (q == TsdfMap::kUnknownValue) continue;
+    float w[3];
+    for (int a = 0; a < 3; ++a) w[a] = c[a] ? f[a] : 1.0f - f[a];
+    const float corner_weight = w[0] * w[1] * w[2];
+    // d(corner_weight)/d(g[a]): the factor of axis a turned into its slope, +1 or -1.
+    const Eigen::Vector3f slope((c[0] ? 1.0f : -1.0f) * w[1] * w[2], (c[1] ? 1.0f : -1.0f) * w[0] * w[2],
+                                (c[2] ? 1.0f : -1.0f) * w[0] * w[1]);
+    const auto value = static_cast<float>(q);
+    weight += corner_weight;
+    sum += corner_weight * value;
+    d_weight += slope;
+    d_sum += slope * value;
+  }
+  if (weight < 1e-3f) return false;
+  *distance = sum / weight * view.quant_step;
+  *gradient = (d_sum * weight - d_weight * sum) / (weight * weight) * view.quant_step;
+  return true;
+}
+
+}  // namespace
+
+namespace {
+
+// The Gauss-Newton normal equations of the points' distances at `pose` (Huber-weighted beyond 0.1 m; points in unknown
+// space or beyond 0.8 of the truncation band take no part); returns how many points took part.
+std::size_t point_normal_equations(const kernel::MapView& view, float band, const Pose& pose,
+                                   const std::vector<Eigen::Vector3f>& points, Eigen::Matrix<double, 6, 6>& jtj,
+                                   Eigen::Matrix<double, 6, 1>& jtr) {
+  constexpr double kHuber = 0.1;  // m
+  jtj.setZero();
+  jtr.setZero();
+  std::size_t used = 0;
+  const Eigen::Matrix3f r = pose.linear().cast<float>();
+  const Eigen::Vector3f t = pose.translation().cast<float>();
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3f w = r * p + t;
+    const float g[3] = {w.x() * view.inv_voxel, w.y() * view.inv_voxel, w.z() * view.inv_voxel};
+    float d = 0.0f;
+    Eigen::Vector3f grad;
+    if (!distance_and_gradient(view, g, &d, &grad) || std::abs(d) > band) continue;
+    grad *= view.inv_voxel;  // per metre
+    // Rotation about the sensor, not the map's origin (tens of metres away, where a small turn is a large shift):
+    // d(w') for w' = t + dt + (1 + [dtheta]x) R p, so the Jacobian is [grad, (R p) x grad].
+    Eigen::Matrix<double, 6, 1> j;
+    j.head<3>() = grad.cast<double>();
+    j.tail<3>() = (r * p).cast<double>().cross(grad.cast<double>());
+    const double weight = std::abs(d) <= kHuber ? 1.0 : kHuber / std::abs(d);
+    jtj.selfadjointView<Eigen::Lower>().rankUpdate(j, weight);
+    jtr += weight * j * static_cast<double>(d);
+    ++used;
+  }
+  jtj = jtj.selfadjointView<Eigen::Lower>();
+  return used;
+}
+
+}  // namespace
+
 Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Vector3f>& points, int iterations,
                  const WallTilt* walls) {
   if (points.empty() || map.empty()) return pose;
   const kernel::MapView view(map);
-  const float h = 0.5f * map.voxel_size();
   const float band = 0.8f * map.truncation();
-  constexpr double kHuber = 0.1;  // m
-  // Distance at a world position (trilinear, renormalized over known corners), false if unknown.
-  const auto distance = [&](const Eigen::Vector3f& w, float* d) {
-    const float g[3] = {w.x() * view.inv_voxel, w.y() * view.inv_voxel, w.z() * view.inv_voxel};
-    return kernel::sample_trilinear(view, g, d);
-  };
+  // A step this small changes nothing the filter measures: the refinement has settled.
+  constexpr double kSettledM = 5e-4;
+  constexpr double kSettledRad = 2e-4;
   Pose current = pose;
   for (int iteration = 0; iteration < iterations; ++iteration) {
-    Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
-    std::size_t used = 0;
-    const Eigen::Matrix3f r = current.linear().cast<float>();
-    const Eigen::Vector3f t = current.translation().cast<float>();
-    for (const Eigen::Vector3f& p : points) {
-      const Eigen::Vector3f w = r * p + t;
-      float d = 0.0f;
-      if (!distance(w, &d) || std::abs(d) > band) continue;
-      Eigen::Vector3f grad;
-      bool known = true;
-      for (int a = 0; a < 3 && known; ++a) {
-        Eigen::Vector3f lo = w, hi = w;
-        lo[a] -= h;
-        hi[a] += h;
-        float dl = 0.0f, dh = 0.0f;
-        known = distance(lo, &dl) && distance(hi, &dh);
-        grad[a] = (dh - dl) / (2.0f * h);
-      }
-      if (!known) continue;
-      // Rotation about the sensor, not the map's origin (tens of metres away, where a small turn is a large
-      // shift): d(w') for w' = t + dt + (1 + [dtheta]x) R p, so the Jacobian is [grad, (R p) x grad].
-      Eigen::Matrix<double, 6, 1> j;
-      j.head<3>() = grad.cast<double>();
-      j.tail<3>() = (r * p).cast<double>().cross(grad.cast<double>());
-      const double weight = std::abs(d) <= kHuber ? 1.0 : kHuber / std::abs(d);
-      jtj += weight * j * j.transpose();
-      jtr += weight * j * static_cast<double>(d);
-      ++used;
-    }
-    if (used < 12) return current;
+    Eigen::Matrix<double, 6, 6> jtj;
+    Eigen::Matrix<double, 6, 1> jtr;
+    if (point_normal_equations(view, band, current, points, jtj, jtr) < 12) return current;
     if (walls != nullptr && walls->information > 0.0) {
       // e = u . (R n); turning by dtheta adds u . (dtheta x R n) = dtheta . (R n x u).
       for (const Eigen::Vector3d& n : walls->normals) {
@@ -345,6 +419,7 @@ Pose refine_pose(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::
     next.linear() = turn * current.linear();
     next.translation() = current.translation() + applied.head<3>();
     current = next;
+    if (applied.head<3>().norm() < kSettledM && applied.tail<3>().norm() < kSettledRad) break;
   }
   return current;
 }

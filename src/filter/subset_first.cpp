@@ -76,6 +76,54 @@ void SubsetFirstWeighing::weigh_chosen(SensorEvaluator& evaluator, const std::ve
   add_pass(sum, evaluator.last_timings());
 }
 
+void SubsetFirstWeighing::assign_passes(std::size_t m, bool middle) {
+  // Which pass first weighs each point: 0 the first pass's k, every k-th of the scan (the preprocessed points are in
+  // space-filling-curve order, so they spread over it); 1 the middle pass's, spread the same way; 2 the rest.
+  const std::size_t k = middle ? options_.global_points : options_.points;
+  pass_of_point_.assign(m, 2);
+  for (std::size_t j = 0; j < k; ++j) pass_of_point_[j * m / k] = 0;
+  if (!middle) return;
+  for (std::size_t j = 0; j < options_.middle_points; ++j) {
+    std::uint8_t& pass = pass_of_point_[j * m / options_.middle_points];
+    pass = std::min<std::uint8_t>(pass, 1);
+  }
+}
+
+std::size_t SubsetFirstWeighing::points_of_pass(const std::vector<Eigen::Vector3f>& points, std::uint8_t pass) {
+  subset_.clear();
+  for (std::size_t j = 0; j < points.size(); ++j) {
+    if (pass_of_point_[j] == pass) subset_.push_back(points[j]);
+  }
+  return subset_.size();
+}
+
+void SubsetFirstWeighing::weigh_middle_and_rest(SensorEvaluator& evaluator, std::size_t n,
+                                                const std::vector<Eigen::Vector3f>& points, const EndpointModel& model,
+                                                std::size_t first, UpdateTimings& sum) {
+  // Middle pass: the share on the points the first pass lacked, added to the first pass's sum, the whole now scaled by
+  // m / (the points of both); then the best of them on the rest of the scan, which completes the sum. Each point is
+  // weighed once per particle.
+  const std::size_t m = points.size();
+  const ParticleArrays p = evaluator.particles();
+  const ParticleArrays spare = evaluator.spare_particles();
+  const std::size_t both = first + points_of_pass(points, 1);
+  weigh_chosen(evaluator, middle_, subset_, scaled_to(model, m, both), sum);
+  const double to_both = static_cast<double>(first) / static_cast<double>(both);
+  for (std::size_t j = 0; j < middle_.size(); ++j) {
+    float& w = p.log_weight[middle_[j]];
+    w = static_cast<float>(static_cast<double>(w) * to_both + static_cast<double>(spare.log_weight[j]));
+  }
+  refined_ = middle_;
+  best_of(p.log_weight, refined_, share_of(std::min(options_.whole_share, options_.share), n));
+  points_of_pass(points, 2);
+  weigh_chosen(evaluator, refined_, subset_, model, sum);
+  const double to_whole = static_cast<double>(both) / static_cast<double>(m);
+  for (std::size_t j = 0; j < refined_.size(); ++j) {
+    float& w = p.log_weight[refined_[j]];
+    w = static_cast<float>(static_cast<double>(w) * to_whole + static_cast<double>(spare.log_weight[j]));
+  }
+}
+
 WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t n,
                                          const std::vector<Eigen::Vector3f>& points, const EndpointModel& model,
                                          const Eigen::Quaternionf& reference, UpdateTimings* timings,
@@ -90,30 +138,12 @@ WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t
   }
   const Stopwatch t0;
   const std::size_t m = points.size();
-  // Which pass first weighs each point: 0 the first pass's k, every k-th of the scan (the preprocessed points are
-  // in space-filling-curve order, so they spread over it); 1 the middle pass's, spread the same way; 2 the rest.
   const bool middle = global_search && options_.global_points > 0 && options_.middle_points > options_.global_points &&
                       2 * options_.middle_points <= m;
-  const std::size_t k = middle ? options_.global_points : options_.points;
-  pass_of_point_.assign(m, 2);
-  for (std::size_t j = 0; j < k; ++j) pass_of_point_[j * m / k] = 0;
-  if (middle) {
-    for (std::size_t j = 0; j < options_.middle_points; ++j) {
-      std::uint8_t& pass = pass_of_point_[j * m / options_.middle_points];
-      pass = std::min<std::uint8_t>(pass, 1);
-    }
-  }
-  const auto points_of = [&](std::uint8_t pass) {
-    subset_.clear();
-    for (std::size_t j = 0; j < m; ++j) {
-      if (pass_of_point_[j] == pass) subset_.push_back(points[j]);
-    }
-    return subset_.size();
-  };
-
+  assign_passes(m, middle);
   // First pass: every particle on the k points, the exponent scaled by m / k so the log-weights estimate the whole
   // scan's.
-  const std::size_t first = points_of(0);
+  const std::size_t first = points_of_pass(points, 0);
   evaluator.set_points(subset_);
   evaluator.weigh(n, scaled_to(model, m, first));
   UpdateTimings sum = evaluator.last_timings();
@@ -129,25 +159,7 @@ WeightSummary SubsetFirstWeighing::weigh(SensorEvaluator& evaluator, std::size_t
     weigh_chosen(evaluator, refined_, points, model, sum);
     for (std::size_t j = 0; j < refined_.size(); ++j) p.log_weight[refined_[j]] = spare.log_weight[j];
   } else {
-    // Middle pass: the share on the points the first pass lacked, added to the first pass's sum, the whole now
-    // scaled by m / (the points of both); then the best of them on the rest of the scan, which completes the sum.
-    // Each point is weighed once per particle.
-    const std::size_t both = first + points_of(1);
-    weigh_chosen(evaluator, middle_, subset_, scaled_to(model, m, both), sum);
-    const double to_both = static_cast<double>(first) / static_cast<double>(both);
-    for (std::size_t j = 0; j < middle_.size(); ++j) {
-      float& w = p.log_weight[middle_[j]];
-      w = static_cast<float>(static_cast<double>(w) * to_both + static_cast<double>(spare.log_weight[j]));
-    }
-    refined_ = middle_;
-    best_of(p.log_weight, refined_, share_of(std::min(options_.whole_share, options_.share), n));
-    points_of(2);
-    weigh_chosen(evaluator, refined_, subset_, model, sum);
-    const double to_whole = static_cast<double>(both) / static_cast<double>(m);
-    for (std::size_t j = 0; j < refined_.size(); ++j) {
-      float& w = p.log_weight[refined_[j]];
-      w = static_cast<float>(static_cast<double>(w) * to_whole + static_cast<double>(spare.log_weight[j]));
-    }
+    weigh_middle_and_rest(evaluator, n, points, model, first, sum);
   }
   const WeightSummary summary = reduce_weights(p, n, reference, fit_constants(model, m));
   sum.evaluate_ms = t0.ms();

@@ -131,14 +131,14 @@ std::string initial_pose_misfit(const FilterStep& step, const LocalizerOptions& 
   char buf[300];
   const double moved = (step.estimate.pose.translation() - initial.translation()).norm();
   if (moved > kMovedAway) {
-    std::snprintf(buf, sizeof(buf), "the best hypothesis after the first update lies %.1f m from it", moved);
+    std::snprintf(buf, sizeof(buf), "the best place after the first update lies %.1f m from it", moved);
     return buf;
   }
   const double fit = step.estimate.inlier_ratio;
-  const double needed = options.filter.convergence.min_inlier_ratio;
+  const double needed = options.filter.states.min_inliers;
   if (std::isfinite(fit) && fit < needed) {
     std::snprintf(buf, sizeof(buf), "%.0f %% of its points lie within %.2f m of a surface (converged needs %.0f %%)",
-                  100.0 * fit, static_cast<double>(options.filter.inlier_distance), 100.0 * needed);
+                  100.0 * fit, static_cast<double>(options.filter.places.inlier_distance), 100.0 * needed);
     return buf;
   }
   return "";

@@ -44,8 +44,8 @@ nlohmann::json scan_json(const ScanRecord& r) {
   j["timings_ms"] = {{"preprocess", r.preprocess_ms}};
   if (step.updated) {
     const StepTimings& t = step.timings;
-    // The points a concentrated cloud's particles were weighed on among themselves (clear of unobserved space and
-    // its frontier: ParticleFilter::weigh_track_on_evidence); null where every particle was weighed on all of them.
+    // The points a compact place's particles were weighed on among themselves (clear of unobserved space and its
+    // frontier: docs/filter.md, "Which points are evidence"); null where every particle was weighed on all of them.
     j["points"]["track_evidence"] = step.weighed_points ? nlohmann::json(step.weighed_points) : nlohmann::json(nullptr);
     j["particles"] = step.particles;
     j["particles_after"] = step.next_particles;
@@ -62,10 +62,12 @@ nlohmann::json scan_json(const ScanRecord& r) {
                             {"weight", t.weight_ms},
                             {"weight_gpu", number_or_null(t.weight_gpu_ms)},
                             {"reduce_gpu", number_or_null(t.reduce_gpu_ms)},
-                            {"reduce_host", t.reduce_ms},
-                            {"tempering", t.tempering_ms},
-                            {"hypotheses", t.hypotheses_ms},
                             {"walls", t.walls_ms},
+                            {"own_points", t.own_points_ms},
+                            {"tempering", t.tempering_ms},
+                            {"places", t.places_ms},
+                            {"ledger", t.ledger_ms},
+                            {"decision", t.decision_ms},
                             {"resample", t.resample_ms},
                             {"update_total", t.total_ms}});
   } else {
@@ -81,32 +83,32 @@ nlohmann::json scan_json(const ScanRecord& r) {
   j["see_through_ratio"] = number_or_null(e.see_through_ratio);
   j["coverage"] = number_or_null(e.coverage);
   j["state"] = to_string(step.state);
+  j["reason"] = to_string(step.reason);
   if (step.updated) {
     j["holding"] = step.holding;
     if (step.holding) {
       j["challenge_evidence"] = step.challenge_evidence;
       j["challenge_travel_m"] = step.challenge_travel;
     }
-    j["restored"] = step.restored;
-    j["look_alike_restored"] = step.look_alike_restored;  // particles put at a look-alike the scans proved better
-    // Places the scans have not told from the track (look_alikes.hpp): while any is kept, `converged` waits.
-    nlohmann::json look_alikes = nlohmann::json::array();
-    for (const Pose& p : step.look_alikes) look_alikes.push_back(pose_json(p));
-    j["look_alikes"] = std::move(look_alikes);
+    j["restored"] = step.restored;  // particles put back at a place the ledger favours
+    // Places the ledger has not told from the track (place_ledger.hpp): while any is followed, `converged` waits.
+    nlohmann::json rivals = nlohmann::json::array();
+    for (const Pose& p : step.rivals) rivals.push_back(pose_json(p));
+    j["rivals"] = std::move(rivals);
     j["concentrated"] = step.concentrated;
     j["implausible"] = step.implausible;
-    nlohmann::json hypotheses = nlohmann::json::array();
-    for (const Hypothesis& h : e.hypotheses) {
-      hypotheses.push_back({{"weight", h.weight},
-                            {"particles", h.particles},
-                            {"pose", pose_json(h.pose)},
-                            {"std_position_m", h.std_position},
-                            {"std_rotation_deg", h.std_rotation * kDeg},
-                            {"inlier_ratio", number_or_null(h.inlier_ratio)},
-                            {"see_through_ratio", number_or_null(h.see_through_ratio)},
-                            {"coverage", number_or_null(h.coverage)}});
+    nlohmann::json places = nlohmann::json::array();
+    for (const Place& h : e.places) {
+      places.push_back({{"weight", h.weight},
+                        {"particles", h.particles},
+                        {"pose", pose_json(h.pose)},
+                        {"std_position_m", h.std_position},
+                        {"std_rotation_deg", h.std_rotation * kDeg},
+                        {"inlier_ratio", number_or_null(h.inlier_ratio)},
+                        {"see_through_ratio", number_or_null(h.see_through_ratio)},
+                        {"coverage", number_or_null(h.coverage)}});
     }
-    j["hypotheses"] = std::move(hypotheses);
+    j["places"] = std::move(places);
   }
   return j;
 }

@@ -164,7 +164,7 @@ ParticleSnapshot Localizer::snapshot() const {
     snapshot.particles[i].orientation = p.rotation(i);
     snapshot.particles[i].weight = static_cast<float>(w[i]);
   }
-  for (const Hypothesis& h : filter_->estimate().hypotheses) {
+  for (const Place& h : filter_->estimate().places) {
     ParticleSnapshot::Particle m;
     m.position = h.pose.translation().cast<float>();
     m.orientation = Eigen::Quaternionf(Eigen::Quaterniond(h.pose.linear()).cast<float>());

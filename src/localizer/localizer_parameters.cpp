@@ -42,8 +42,6 @@ class Values {
   std::size_t count(const std::string& name, std::size_t max = std::numeric_limits<std::size_t>::max()) const;
   bool flag(const std::string& name) const;
   std::vector<std::string> list(const std::string& name) const;
-  // One of `choices`, else Error listing them.
-  std::string choice(const std::string& name, const std::vector<std::string>& choices) const;
   // The text through a parser of names (parse_backend, ...), whose Error is a ValueTypeError.
   template <typename Parse>
   auto parsed(const std::string& name, Parse parse) const {
@@ -137,38 +135,15 @@ std::vector<std::string> Values::list(const std::string& name) const {
   return out;
 }
 
-std::string Values::choice(const std::string& name, const std::vector<std::string>& choices) const {
-  const std::string v = text(name);
-  if (std::find(choices.begin(), choices.end(), v) != choices.end()) return v;
-  std::string all;
-  for (std::size_t i = 0; i < choices.size(); ++i) {
-    all += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
-  }
-  throw ValueTypeError(name + " must be " + all + ", got '" + v + "'");
-}
-
-void set_sampling(FilterParameters& f, const Values& v) {
+void set_filter(FilterParameters& f, const Values& v) {
   f.initial_particles = v.count("particles", limits::kMaxParticles);
   f.kld.min_particles = v.count("min_particles", limits::kMaxParticles);
   f.kld.max_particles = v.count("max_particles", limits::kMaxParticles);
   f.kld.pf_err = v.number("pf_err");
   f.kld.pf_z = v.number("pf_z");
-  f.kld.bin_xy = static_cast<float>(v.number("kld_bin_xy"));
-  f.kld.bin_z = static_cast<float>(v.number("kld_bin_z"));
-  f.kld.bin_angle = static_cast<float>(v.angle("kld_bin_angle"));
-  f.resample_method = v.parsed("resample_method", parse_resampling_method);
   f.resample_interval = v.count("resample_interval");
-  f.resample_ess_ratio = v.number("resample_ess_ratio");
-  f.recovery_alpha_slow = v.number("recovery_alpha_slow");
-  f.recovery_alpha_fast = v.number("recovery_alpha_fast");
-  f.recovery_margin = v.number("recovery_margin");
-  f.min_ess_ratio = v.number("min_ess_ratio");
-  f.subset_first.points = v.count("subset_points", limits::kMaxBeams);
-  f.subset_first.share = v.number("subset_share");
-  f.subset_first.min_particles = v.count("subset_min_particles");
-  f.subset_first.global_points = v.count("subset_global_points", limits::kMaxBeams);
-  f.subset_first.middle_points = v.count("subset_middle_points", limits::kMaxBeams);
-  f.subset_first.whole_share = v.number("subset_whole_share");
+  f.recovery.alpha_slow = v.number("recovery_alpha_slow");
+  f.recovery.alpha_fast = v.number("recovery_alpha_fast");
   f.seed = v.count("seed");
 }
 
@@ -177,12 +152,6 @@ void set_sensor(FilterParameters& f, const Values& v) {
   f.sensor.z_hit = static_cast<float>(v.number("z_hit"));
   f.sensor.z_rand = static_cast<float>(v.number("z_rand"));
   f.sensor.max_range = static_cast<float>(v.positive("laser_max_range"));
-  f.sensor.likelihood =
-      v.choice("likelihood", {"product", "sum"}) == "product" ? Likelihood::kProduct : Likelihood::kSum;
-  f.sensor.interpolation = v.choice("interpolation", {"nearest", "trilinear"}) == "nearest" ? Interpolation::kNearest
-                                                                                            : Interpolation::kTrilinear;
-  f.sensor.weight_exponent = static_cast<float>(v.number("weight_exponent"));
-  f.unknown_as_free = v.choice("unknown_space", {"free", "miss"}) == "free";
 }
 
 void set_motion(FilterParameters& f, const Values& v) {
@@ -190,17 +159,17 @@ void set_motion(FilterParameters& f, const Values& v) {
   double* alphas[] = {&f.motion.alpha1, &f.motion.alpha2, &f.motion.alpha3, &f.motion.alpha4,
                       &f.motion.alpha5, &f.motion.alpha6, &f.motion.alpha7, &f.motion.alpha8};
   for (int i = 0; i < 8; ++i) *alphas[i] = v.number("alpha" + std::to_string(i + 1));
-  f.motion.imu_rotation = v.flag("imu_rotation");
-  f.motion.imu_sigma = v.angle("imu_sigma");
+  const double imu_sigma = v.angle("imu_rotation_sigma");
+  if (imu_sigma < 0.0) throw Error("imu_rotation_sigma must not be negative");
+  f.motion.imu_rotation = imu_sigma > 0.0;
+  if (f.motion.imu_rotation) f.motion.imu_sigma = imu_sigma;
+  // The random walk's vertical and roll/pitch terms follow the horizontal ones in the defaults' proportions.
   f.motion.diffusion_xy = v.number("diffusion_xy");
-  f.motion.diffusion_z = v.number("diffusion_z");
+  f.motion.diffusion_z = 0.25 * f.motion.diffusion_xy;
   f.motion.diffusion_yaw = v.angle("diffusion_yaw");
-  f.motion.diffusion_roll_pitch = v.angle("diffusion_roll_pitch");
+  f.motion.diffusion_roll_pitch = 0.3 * f.motion.diffusion_yaw;
   f.update_min_d = v.number("update_min_d");
   f.update_min_a = v.angle("update_min_a");
-  f.roughening_xyz = v.number("roughening_xyz");
-  f.roughening_angle = v.angle("roughening_angle");
-  f.roughening_interval = v.number("roughening_interval");
 }
 
 void set_initialization(FilterParameters& f, const Values& v) {
@@ -212,40 +181,18 @@ void set_initialization(FilterParameters& f, const Values& v) {
     f.global_init.min_height = Values({{"init_height_band", band[0]}}).number("init_height_band");
     f.global_init.max_height = Values({{"init_height_band", band[1]}}).number("init_height_band");
   }
-  f.global_init.min_clearance = v.number("init_min_clearance");
   f.global_search.candidates = v.count("init_candidates", limits::kMaxParticles);
-  f.global_search.screen_points = v.count("init_screen_points", limits::kMaxBeams);
-  f.global_search.screen_sigma = static_cast<float>(v.number("init_screen_sigma"));
-  f.global_search.proposal.uniform_share = v.number("init_uniform_share");
   f.local_init.sigma_xy = v.number("init_sigma_xy");
   f.local_init.sigma_z = v.number("init_sigma_z");
   f.local_init.sigma_yaw = v.angle("init_sigma_yaw");
-  f.local_init.sigma_roll_pitch = v.angle("init_sigma_roll_pitch");
+  f.local_init.sigma_roll_pitch = 0.2 * f.local_init.sigma_yaw;
 }
 
-void set_estimate(FilterParameters& f, const Values& v) {
-  f.estimate.best_particle = v.choice("pose_estimate", {"mean", "best"}) == "best";
-  f.estimate.cluster_bin_xyz = static_cast<float>(v.number("cluster_bin_xyz"));
-  f.estimate.cluster_bin_yaw = static_cast<float>(v.angle("cluster_bin_yaw"));
-  f.estimate.converged_weight = v.number("converged_weight");
-  f.estimate.converged_std_xyz = v.number("converged_std_xyz");
-  f.estimate.converged_std_angle = v.angle("converged_std_angle");
-  f.convergence.min_inlier_ratio = v.number("converged_min_inliers");
-  f.convergence.min_updates = v.count("converged_min_updates");
-  f.convergence.travel_after_jump_m = v.number("converged_travel_after_jump");
-  f.convergence.competitor_min_weight = v.number("converged_competitor_weight");
-  f.look_alikes.refute_nats = v.number("converged_look_alike_nats");
-  f.inlier_distance = static_cast<float>(v.number("inlier_distance"));
-  f.recovery_min_inliers = v.number("recovery_min_inliers");
-  f.hypothesis_evidence_points = v.number("hypothesis_evidence_points");
-  f.decisive_inlier_gap = v.number("decisive_inlier_gap");
-  f.estimate_switch_ratio = v.number("estimate_switch_ratio");
-  f.wall_tilt_information = v.number("wall_tilt_information");
-  f.frontier_evidence = v.flag("frontier_evidence");
-  f.even_tied_places = !v.flag("sampled_place_shares");
-  f.see_through_weight = v.number("see_through_weight");
-  f.hypothesis_min_particles = v.count("hypothesis_min_particles", limits::kMaxParticles);
-  f.hypothesis_min_weight = v.number("hypothesis_min_weight");
+void set_decision(FilterParameters& f, const Values& v) {
+  f.ledger.decide_nats = v.number("evidence_nats");
+  f.ledger.window_m = v.number("proof_travel");
+  f.states.min_inliers = v.number("converged_min_inliers");
+  f.recovery.min_inliers = v.number("recovery_min_inliers");
 }
 
 // The initial pose of init x,y,z,roll,pitch,yaw or init initial_pose; nullopt for global.
@@ -294,6 +241,33 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 const std::vector<ParameterSpec>& localizer_parameter_specs() {
   static const std::vector<ParameterSpec> specs = localizer_parameter_table();
   return specs;
+}
+
+std::string parameters_markdown() {
+  std::ostringstream md;
+  md << "# Parameters\n\n"
+        "<!-- Generated from the parameter table (src/localizer/parameter_table.cpp) by `tsdf-mcl localize "
+        "--help-markdown`; a test fails when this file differs. -->\n\n"
+        "Every parameter `tsdf-mcl localize` takes (as `--name value` or from `--config FILE`), the ROS nodes read "
+        "and the Python module accepts, by the same name. Angles are in radians as in nav2, or with a unit "
+        "(`90deg`). `localize --help` lists all but the expert ones; `--help-all` lists them all. Everything else "
+        "the filter has is a design constant of its options structs, described in [filter.md](filter.md).\n";
+  std::vector<std::string> groups;
+  for (const ParameterSpec& s : localizer_parameter_specs()) {
+    if (std::find(groups.begin(), groups.end(), s.group) == groups.end()) groups.push_back(s.group);
+  }
+  for (const std::string& group : groups) {
+    md << "\n## " << group << "\n\n| name | value | default | what it does |\n|---|---|---|---|\n";
+    for (const ParameterSpec& s : localizer_parameter_specs()) {
+      if (s.group != group) continue;
+      md << "| `" << s.name << "` | " << (s.value_name.empty() ? "flag" : s.value_name) << " | "
+         << (s.default_value.empty() ? "" : "`" + s.default_value + "`") << " | " << s.help << " |\n";
+    }
+  }
+  md << "\n## amcl's names\n\nROS 1 amcl's names are accepted for ours where the meaning carries over:\n\n"
+        "| amcl | tsdf-mcl |\n|---|---|\n";
+  for (const ParameterAlias& a : localizer_parameter_aliases()) md << "| `" << a.alias << "` | `" << a.name << "` |\n";
+  return md.str();
 }
 
 const std::vector<ParameterAlias>& localizer_parameter_aliases() {
@@ -354,11 +328,11 @@ void check_parameter_types(const std::map<std::string, std::string>& values) {
 LocalizerOptions localizer_options_from(const std::map<std::string, std::string>& values) {
   const Values v(values);
   LocalizerOptions lo;
-  set_sampling(lo.filter, v);
+  set_filter(lo.filter, v);
   set_sensor(lo.filter, v);
   set_motion(lo.filter, v);
   set_initialization(lo.filter, v);
-  set_estimate(lo.filter, v);
+  set_decision(lo.filter, v);
   lo.filter.validate();
   lo.preprocessing.laser_min_range = static_cast<float>(v.number("laser_min_range"));
   lo.preprocessing.laser_max_range = static_cast<float>(v.number("laser_max_range"));
@@ -370,7 +344,6 @@ LocalizerOptions localizer_options_from(const std::map<std::string, std::string>
   lo.use_imu = !v.flag("ignore_imu");
   lo.evaluator.backend = v.parsed("backend", parse_backend);
   lo.evaluator.cpu_threads = static_cast<int>(v.count("cpu_threads", limits::kMaxThreads));
-  lo.evaluator.weight_layout = v.parsed("weight_layout", parse_weight_layout);
   return lo;
 }
 

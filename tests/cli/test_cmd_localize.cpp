@@ -122,16 +122,20 @@ TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   const auto report = nlohmann::json::parse(test::read_bytes(out / "run/report.json"));
   EXPECT_EQ(report["backend"], "cpu");
   EXPECT_EQ(report["parameters"]["max_beams"], 256);
-  EXPECT_EQ(report["parameters"]["resample_method"], "systematic");
+  EXPECT_EQ(report["parameters"]["evidence_nats"], 3);
   EXPECT_EQ(report["scans"].size(), 24u);
   const auto& first = report["scans"][0];
-  // Each stage is part of the update: none outlasts it.
+  // Each stage is part of the update: none outlasts it, and together they do not either.
   const double total = first["timings_ms"]["update_total"].get<double>();
   EXPECT_GT(total, 0.0);
-  for (const char* key : {"motion", "upload", "weight", "reduce_host", "resample"}) {
+  double stages = 0.0;
+  for (const char* key : {"motion", "upload", "weight", "walls", "own_points", "tempering", "places", "ledger",
+                          "decision", "resample"}) {
     ASSERT_TRUE(first["timings_ms"].contains(key)) << key;
     EXPECT_LE(first["timings_ms"][key].get<double>(), total) << key;
+    stages += first["timings_ms"][key].get<double>();
   }
+  EXPECT_LE(stages, total * 1.001 + 1e-3);
   EXPECT_EQ(first["particles"], 20000);
   EXPECT_TRUE(report["summary"]["final_converged"].get<bool>());
   EXPECT_LE(report["summary"]["particles"]["final"].get<int>(), 2000);
@@ -173,7 +177,7 @@ TEST(CliLocalize, ConfigFileAndFlagPrecedence) {
   const Fixture& f = fixture();
   TempDir out;
   test::write_bytes(out / "params.yaml",
-                    "max_beams: 128\nresample_method: residual\ninit: initial_pose\n"
+                    "max_beams: 128\nproof_travel: 3\ninit: initial_pose\n"
                     "initial_pose:\n  x: 2.0\n  y: 1.2\n  z: 0.9\n");
   const std::string common =
       "localize --map " + f.map + " --dataset " + f.dataset + " --backend cpu --count 3 --particles 500";
@@ -181,7 +185,7 @@ TEST(CliLocalize, ConfigFileAndFlagPrecedence) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto report = nlohmann::json::parse(test::read_bytes(out / "a/report.json"));
   EXPECT_EQ(report["parameters"]["max_beams"], 128);
-  EXPECT_EQ(report["parameters"]["resample_method"], "residual");
+  EXPECT_EQ(report["parameters"]["proof_travel"], 3);
   EXPECT_EQ(report["initialization"]["mode"], "local");
   EXPECT_EQ(report["parameters"]["initial_pose.x"], 2.0);
 
@@ -266,10 +270,10 @@ TEST(CliLocalize, BadInputGivesOneClearError) {
                         "not_a_map.tsdf");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --max_beam 5" + o, "unknown option --max_beam");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --pf_err abc" + o, "pf_err expects a number");
-  expect_one_line_error(out, base + " --dataset " + f.dataset + " --resample_method lucky" + o, "resample_method");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --motion_model lucky" + o, "motion_model");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --init 1,2,3" + o, "init expects");
-  expect_one_line_error(out, base + " --dataset " + f.dataset + " --subset_share 1.5" + o,
-                        "subset_share must lie in (0, 1]");
+  expect_one_line_error(out, base + " --dataset " + f.dataset + " --converged_min_inliers 1.5" + o,
+                        "converged_min_inliers must lie in [0, 1]");
   expect_one_line_error(out, base + " --dataset " + f.dataset + " --start 99" + o, "selects no scan");
   expect_one_line_error(out, base + " --dataset " + f.dataset, "missing -o");
 }

@@ -57,11 +57,11 @@ TwinWingWalk twin_wing_walk() {
 void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
   if (!std::getenv("TSDF_MCL_TEST_DEBUG")) return;
   std::fprintf(stderr,
-               "step %zu: err %.2f m conv %d conc %d impl %d chal %d inl %.2f n %zu->%zu inj %zu+%zu+%zu beta %.3g |",
-               i, test::translation_error(s.estimate.pose, truth), s.estimate.converged, s.concentrated, s.implausible,
-               s.challenged, s.estimate.inlier_ratio, s.particles, s.next_particles, s.injected, s.challengers,
-               s.look_alike_restored, s.tempering);
-  for (const Hypothesis& h : s.estimate.hypotheses) {
+               "step %zu: err %.2f m %s (%s) conc %d impl %d rivals %zu inl %.2f n %zu->%zu inj %zu+%zu+%zu beta %.3g |",
+               i, test::translation_error(s.estimate.pose, truth), to_string(s.state), to_string(s.reason),
+               s.concentrated, s.implausible, s.rivals.size(), s.estimate.inlier_ratio, s.particles, s.next_particles,
+               s.injected, s.challengers, s.restored, s.tempering);
+  for (const Place& h : s.estimate.places) {
     std::fprintf(stderr, " %.3f@(%.1f,%.1f)i%.2f", h.weight, h.pose.translation().x(), h.pose.translation().y(),
                  h.inlier_ratio);
   }
@@ -153,7 +153,7 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
     const double x = truth[i].translation().x();
     const auto weight_near = [&](const Pose& p) {
       double w = 0.0;
-      for (const Hypothesis& h : step.estimate.hypotheses) {
+      for (const Place& h : step.estimate.places) {
         if (test::translation_error(h.pose, p) < 0.5 && test::rotation_error(h.pose, p) < 10 * kDeg) w += h.weight;
       }
       return w;
@@ -176,7 +176,7 @@ TEST(GlobalSearch, TwinWingsStayAmbiguousUntilTheFeatureThenConvergeRight) {
 
 // A belief that dropped the true wing gets it back level before the cabinet tells the wings apart: until the track
 // first converges it was never proven against its look-alikes, and the look-alike memory gives the wing it has kept
-// over 2 m of travel the share its evidence does (particle_filter_evidence.cpp, remember_look_alikes), about half. The
+// over 2 m of travel the share its evidence does (filter_decision.cpp, plan_restore), about half. The
 // cabinet's first views then turn the estimate with no proof to wait for, and no wrong wing is claimed once the belief
 // has held the true one. A small first search (4,000 candidates, 2,000 kept) holds one wing only in some seeds; so
 // small a search may also miss the true wing altogether and converge on the mirror before the challengers find it,
@@ -194,7 +194,7 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
     p.initial_particles = 2000;
     p.global_search.candidates = 4000;
     // The belief must drop a wing for the memory to bring it back: tied places started equal keep both.
-    p.even_tied_places = false;
+    p.places.even_tied = false;
     ParticleFilter filter(map, *eval, p, 256);
     ScanExtras extras;
     extras.dense = &scans.dense[0];
@@ -211,7 +211,7 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
       debug_step(i, step, truth[i]);
       const auto weight_near = [&](const Pose& at) {
         double w = 0.0;
-        for (const Hypothesis& h : step.estimate.hypotheses) {
+        for (const Place& h : step.estimate.places) {
           if (test::translation_error(h.pose, at) < 0.5 && test::rotation_error(h.pose, at) < 10 * kDeg) w += h.weight;
         }
         return w;
@@ -252,12 +252,12 @@ TEST(GlobalSearch, ADroppedWingComesBackLevelBeforeTheCabinet) {
 // hypothesis_min_weight above converged_competitor_weight: a hypothesis credible enough to compete but too light to
 // keep joins the rest, and resampling must not give its emptied group particles to draw (it threw "group 2 has no
 // particles to draw from" on the first update).
-TEST(GlobalSearch, HypothesesTooLightToKeepJoinTheRest) {
+TEST(GlobalSearch, PlacesTooLightToKeepJoinTheRest) {
   const TwinWingWalk walk = twin_wing_walk();
   const auto& [map, truth, odometry, scans] = walk;
   auto eval = cpu_evaluator(map);
   FilterParameters p = test::small_building_parameters();
-  p.hypothesis_min_weight = 0.3;
+  p.places.min_weight = 0.3;
   ParticleFilter filter(map, *eval, p, 256);
   ScanExtras extras;
   extras.dense = &scans.dense[0];

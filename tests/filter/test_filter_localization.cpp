@@ -216,7 +216,7 @@ TEST(Kidnapping, FilterRecoversWithoutARestart) {
     auto eval = cpu_evaluator(w.map);
     FilterParameters p = ground_robot();
     p.initial_particles = 2000;
-    if (!challengers) p.challenger_candidates = 0;
+    if (!challengers) p.recovery.challenger_candidates = 0;
     ParticleFilter filter(w.map, *eval, p, 256);
     filter.initialize_local(w.truth[0]);
     std::vector<std::size_t> scans = range(0, 30);
@@ -271,7 +271,7 @@ TEST(MotionGate, HoldsSmallMotionsAndPropagatesTheEstimate) {
     const FilterStep s = filter.update(kScanPeriod * static_cast<double>(i), w.points[i], w.odometry[i]);
     const bool moved_enough = (w.odometry[last_update_scan].inverse() * w.odometry[i]).translation().norm() >= 0.5;
     const bool settling =
-        !converged && kScanPeriod * static_cast<double>(i - last_update_scan) >= p.roughening_interval;
+        !converged && kScanPeriod * static_cast<double>(i - last_update_scan) >= p.roughening.interval;
     EXPECT_EQ(s.updated, i == 0 || moved_enough || settling) << "scan " << i;
     if (s.updated) {
       last_update_estimate = s.estimate.pose;
@@ -290,7 +290,7 @@ TEST(MotionGate, HoldsSmallMotionsAndPropagatesTheEstimate) {
 // Roughening serves a sparse belief. Started around a known pose, the belief is concentrated after its first update,
 // and its particles then move exactly as a filter's without roughening (the same draws of the same noise); started
 // spread over the room, they are roughened before they first converge.
-TEST(Roughening, StopsWhileTheDominantHypothesisHoldsTheBelief) {
+TEST(Roughening, StopsWhileTheDominantPlaceHoldsTheBelief) {
   const World& w = world();
   struct Run {
     bool concentrated = false;
@@ -303,7 +303,7 @@ TEST(Roughening, StopsWhileTheDominantHypothesisHoldsTheBelief) {
     p.initial_particles = 2000;
     p.kld.min_particles = 2000;
     p.kld.max_particles = 2000;
-    if (!roughening) p.roughening_xyz = p.roughening_angle = 0.0;
+    if (!roughening) p.roughening.xyz = p.roughening.angle = 0.0;
     ParticleFilter filter(w.map, *eval, p, 256);
     filter.initialize_local(w.truth[0], spread);
     Run r;
@@ -379,7 +379,7 @@ TEST(ParticleFilterInput, ClearErrors) {
   bad.kld.min_particles = 0;
   EXPECT_THROW(ParticleFilter(w.map, *eval, bad), Error);
   bad = p;
-  bad.recovery_alpha_slow = 0.5;  // slow faster than fast
+  bad.recovery.alpha_slow = 0.5;  // slow faster than fast
   EXPECT_THROW(ParticleFilter(w.map, *eval, bad), Error);
 }
 

@@ -119,7 +119,7 @@ TEST(PoseEstimator, CovarianceOfAGaussianCloudAndConvergence) {
 // switch_ratio times its share, and a place that continues nothing never keeps it.
 TEST(EstimatePlace, ATieBetweenLookAlikesDoesNotMoveTheEstimate) {
   const auto place = [](double x, double yaw, double weight) {
-    Hypothesis h;
+    Place h;
     h.pose = pose_from_xyz_rpy(x, 4.0, 1.0, 0.0, 0.0, yaw);
     h.weight = weight;
     return h;

@@ -127,13 +127,13 @@ TEST(WallTilt, SelectsTheVerticalPatchesAndCapsTheirWeight) {
 
 TEST(WallTilt, TheFilterParameterIsValidated) {
   FilterParameters p;
-  p.wall_tilt_information = -1.0;
+  p.places.wall_tilt_information = -1.0;
   EXPECT_THROW(p.validate(), Error);
-  p.wall_tilt_information = std::nan("");
+  p.places.wall_tilt_information = std::nan("");
   EXPECT_THROW(p.validate(), Error);
-  p.wall_tilt_information = 0.0;
+  p.places.wall_tilt_information = 0.0;
   EXPECT_NO_THROW(p.validate());
-  p.wall_tilt_information = 3.0;
+  p.places.wall_tilt_information = 3.0;
   EXPECT_NO_THROW(p.validate());
 }
 

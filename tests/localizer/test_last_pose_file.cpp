@@ -65,12 +65,12 @@ TEST(LastPoseFile, StartsThereUnlessTheOptionsHaveAPose) {
 
 TEST(LastPoseFile, TheFirstUpdateTellsAMisfit) {
   LocalizerOptions options;
-  options.filter.convergence.min_inlier_ratio = 0.5;
+  options.filter.states.min_inliers = 0.5;
   FilterStep step;
   step.estimate.pose = pose_from_xyz_rpy(1.2, 0, 0, 0, 0, 0);
   step.estimate.inlier_ratio = 0.9;
   EXPECT_EQ(initial_pose_misfit(step, options, Pose::Identity()),
-            "the best hypothesis after the first update lies 1.2 m from it");
+            "the best place after the first update lies 1.2 m from it");
   step.estimate.pose = pose_from_xyz_rpy(0.3, 0, 0, 0, 0, 0);
   EXPECT_EQ(initial_pose_misfit(step, options, Pose::Identity()), "");
   step.estimate.inlier_ratio = 0.2;

@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <set>
 
+#include "checkout_paths.hpp"
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/localizer/localizer_parameters.hpp"
@@ -40,12 +44,17 @@ double yaw_of(const Pose& p) { return std::atan2(p.rotation()(1, 0), p.rotation(
 
 TEST(LocalizerParameters, EveryNameOnceInAKnownGroupAndTheDefaultsAreTheLibrarys) {
   std::set<std::string> names;
-  const std::set<std::string> groups = {"initialization", "filter", "sensor model", "advanced"};
+  const std::set<std::string> groups = {"initialization", "filter", "sensor model", "decision", "runtime", "expert"};
+  std::size_t shown = 0;
   for (const ParameterSpec& s : localizer_parameter_specs()) {
     EXPECT_TRUE(names.insert(s.name).second) << s.name;
     EXPECT_TRUE(groups.count(s.group)) << s.name << " in group '" << s.group << "'";
     EXPECT_FALSE(s.help.empty()) << s.name;
+    shown += s.group != "expert" ? 1 : 0;
   }
+  // A user meets few parameters: at most 40 in localize --help, 50 in all (--help-all).
+  EXPECT_LE(shown, 40u);
+  EXPECT_LE(names.size(), 50u);
   for (const ParameterAlias& a : localizer_parameter_aliases()) {
     EXPECT_TRUE(names.count(a.name)) << a.alias << " -> " << a.name;
     EXPECT_FALSE(names.count(a.alias)) << a.alias;
@@ -56,25 +65,40 @@ TEST(LocalizerParameters, EveryNameOnceInAKnownGroupAndTheDefaultsAreTheLibrarys
   EXPECT_EQ(o.filter.kld.max_particles, f.kld.max_particles);
   EXPECT_FLOAT_EQ(o.filter.sensor.sigma_hit, f.sensor.sigma_hit);
   EXPECT_DOUBLE_EQ(o.filter.update_min_a, f.update_min_a);
-  EXPECT_DOUBLE_EQ(o.filter.wall_tilt_information, f.wall_tilt_information);
-  EXPECT_DOUBLE_EQ(o.filter.see_through_weight, f.see_through_weight);
-  EXPECT_DOUBLE_EQ(o.filter.decisive_inlier_gap, f.decisive_inlier_gap);
-  EXPECT_EQ(o.filter.even_tied_places, f.even_tied_places);
+  EXPECT_DOUBLE_EQ(o.filter.ledger.decide_nats, f.ledger.decide_nats);
+  EXPECT_DOUBLE_EQ(o.filter.ledger.window_m, f.ledger.window_m);
+  EXPECT_DOUBLE_EQ(o.filter.states.min_inliers, f.states.min_inliers);
+  EXPECT_DOUBLE_EQ(o.filter.motion.diffusion_z, f.motion.diffusion_z);
+  EXPECT_DOUBLE_EQ(o.filter.motion.diffusion_roll_pitch, f.motion.diffusion_roll_pitch);
+  EXPECT_NEAR(o.filter.local_init.sigma_roll_pitch, f.local_init.sigma_roll_pitch, 1e-6);  // the help's digits
   EXPECT_EQ(o.preprocessing.max_beams, ScanPreprocessing{}.max_beams);
   EXPECT_FALSE(o.initial_pose.has_value());
   EXPECT_TRUE(o.use_imu);
+}
+
+// docs/parameters.md is the table's: regenerate it with `tsdf-mcl localize --help-markdown > docs/parameters.md`.
+TEST(LocalizerParameters, TheReferenceDocIsGeneratedFromTheTable) {
+  const std::filesystem::path doc =
+      std::filesystem::path(test::test_data_dir()).parent_path().parent_path() / "docs" / "parameters.md";
+  std::ifstream in(doc);
+  ASSERT_TRUE(in) << doc;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, parameters_markdown()) << doc << " differs from the table: run tsdf-mcl localize --help-markdown";
+  for (const ParameterSpec& s : localizer_parameter_specs()) {
+    EXPECT_NE(text.find("| `" + s.name + "` |"), std::string::npos) << s.name;
+  }
 }
 
 TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
   const LocalizerOptions o = localizer_options_from({{"particles", "777"},
                                                      {"sigma_hit", "0.25"},
                                                      {"ignore_imu", "true"},
-                                                     {"imu_rotation", "1"},
+                                                     {"imu_rotation_sigma", "0.01"},
                                                      {"update_min_a", "10deg"},
-                                                     {"wall_tilt_information", "0"},
-                                                     {"see_through_weight", "0.5"},
-                                                     {"decisive_inlier_gap", "0"},
-                                                     {"sampled_place_shares", "true"},
+                                                     {"evidence_nats", "4"},
+                                                     {"proof_travel", "3"},
+                                                     {"converged_min_inliers", "0.6"},
+                                                     {"diffusion_xy", "0.4"},
                                                      {"init", "initial_pose"},
                                                      {"initial_pose.x", "2"},
                                                      {"initial_pose.yaw", "90deg"}});
@@ -82,11 +106,12 @@ TEST(LocalizerParameters, ValuesSetTheirFieldsAndAnglesTakeUnits) {
   EXPECT_FLOAT_EQ(o.filter.sensor.sigma_hit, 0.25f);
   EXPECT_FALSE(o.use_imu);
   EXPECT_TRUE(o.filter.motion.imu_rotation);
+  EXPECT_DOUBLE_EQ(o.filter.motion.imu_sigma, 0.01);
   EXPECT_NEAR(o.filter.update_min_a, 10.0 * M_PI / 180.0, 1e-12);
-  EXPECT_EQ(o.filter.wall_tilt_information, 0.0);
-  EXPECT_EQ(o.filter.see_through_weight, 0.5);
-  EXPECT_EQ(o.filter.decisive_inlier_gap, 0.0);
-  EXPECT_FALSE(o.filter.even_tied_places);
+  EXPECT_EQ(o.filter.ledger.decide_nats, 4.0);
+  EXPECT_EQ(o.filter.ledger.window_m, 3.0);
+  EXPECT_EQ(o.filter.states.min_inliers, 0.6);
+  EXPECT_DOUBLE_EQ(o.filter.motion.diffusion_z, 0.1) << "a quarter of diffusion_xy";
   ASSERT_TRUE(o.initial_pose.has_value());
   EXPECT_NEAR(o.initial_pose->translation().x(), 2.0, 1e-12);
   EXPECT_NEAR(yaw_of(*o.initial_pose), M_PI / 2, 1e-9);
@@ -117,7 +142,7 @@ TEST(LocalizerParameters, BadValuesNameTheirParameter) {
   EXPECT_NE(error_of({{"max_beams", "1e3"}}).find("max_beams expects an integer"), std::string::npos);
   EXPECT_NE(error_of({{"max_particles", "4294967296"}}).find("max_particles 4294967296 is more than the limit"),
             std::string::npos);
-  EXPECT_NE(error_of({{"likelihood", "max"}}).find("likelihood must be product or sum, got 'max'"), std::string::npos);
+  EXPECT_NE(error_of({{"motion_model", "max"}}).find("motion_model"), std::string::npos);
   EXPECT_NE(error_of({{"ignore_imu", "3"}}).find("ignore_imu expects true or false"), std::string::npos);
   EXPECT_NE(error_of({{"init", "1,2,3"}}).find("init expects global, initial_pose or x,y,z,roll,pitch,yaw"),
             std::string::npos);

@@ -67,7 +67,9 @@ void plot_errors(const TrajectoryMetrics& m, const MetricsOptions& mo, const std
 
 // The localizer's `converged` flag per estimate, from its report.json (localize writes one line per scan, in
 // the trajectory's order and with the same times).
-std::vector<bool> converged_claims(const std::string& report_file, const std::vector<StampedPose>& estimate) {
+// `states`, if given, takes each scan's `state` ("" where the report has none).
+std::vector<bool> converged_claims(const std::string& report_file, const std::vector<StampedPose>& estimate,
+                                   std::vector<std::string>* states) {
   const std::string text = read_input_file(report_file, "report", limits::kMaxReportFileBytes);
   nlohmann::json report;
   try {
@@ -96,6 +98,10 @@ std::vector<bool> converged_claims(const std::string& report_file, const std::ve
                   " is not at the trajectory's time (not the same run?)");
     }
     claims.push_back(s["converged"].get<bool>());
+    if (states) {
+      const auto state = s.find("state");
+      states->push_back(state != s.end() && state->is_string() ? state->get<std::string>() : std::string());
+    }
   }
   return claims;
 }
@@ -203,8 +209,28 @@ void add_claims_json(nlohmann::json& j, const TrajectoryMetrics& m, const Metric
 }
 
 // What evaluate prints: the ground-truth test, the errors after it passed, the converged flags' check.
+// "flag_stability": how steady the converged flag is once raised (null without flags or a claim).
+void add_flag_stability_json(nlohmann::json& j, const TrajectoryMetrics& m, const std::vector<bool>& claims,
+                             const std::vector<std::string>& states) {
+  if (!m.has_claims || m.claimed_converged == 0) {
+    j["flag_stability"] = nullptr;
+    return;
+  }
+  const FlagStability f = flag_stability(m, claims, &states);
+  const auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  j["flag_stability"] = {{"right_scans", f.right_scans},
+                         {"right_flagged", f.right_flagged},
+                         {"right_flagged_share", number(f.flagged_share())},
+                         {"flag_changes", f.flag_changes},
+                         {"minutes", f.minutes},
+                         {"flag_changes_per_minute", number(f.changes_per_minute())},
+                         {"lost_while_right", f.lost_while_right},
+                         {"unflagged_right_states", f.unflagged_right_states}};
+}
+
 nlohmann::json metrics_json(const TrajectoryMetrics& m, const MetricsOptions& mo, const std::string& estimate_file,
-                            const Dataset& dataset, const std::string& report_file) {
+                            const Dataset& dataset, const std::string& report_file, const std::vector<bool>& claims,
+                            const std::vector<std::string>& states) {
   nlohmann::json j;
   j["estimate"] = estimate_file;
   j["dataset"] = dataset.dir().string();
@@ -232,6 +258,7 @@ nlohmann::json metrics_json(const TrajectoryMetrics& m, const MetricsOptions& mo
     j["after_convergence"] = nullptr;
   }
   add_claims_json(j, m, mo, report_file);
+  add_flag_stability_json(j, m, claims, states);
   j["lost_tracks"] = {
       {"episodes", m.lost_tracks},
       {"first_scan", m.lost_tracks > 0 ? nlohmann::json(m.errors[m.first_lost_index].truth_index) : nlohmann::json()},
@@ -310,6 +337,15 @@ nlohmann::json landmark_json(const Landmark& landmark, const TrajectoryMetrics& 
   return j;
 }
 
+void print_flag_stability(const nlohmann::json& f) {
+  if (f.is_null()) return;
+  std::fprintf(stderr,
+               "evaluate: from the first converged flag on: %zu of %zu right scans flagged converged, %zu flag "
+               "changes in %.1f min, %zu right scans flagged lost\n",
+               f["right_flagged"].get<std::size_t>(), f["right_scans"].get<std::size_t>(),
+               f["flag_changes"].get<std::size_t>(), f["minutes"].get<double>(), f["lost_while_right"].get<std::size_t>());
+}
+
 void print_landmark_verdict(const nlohmann::json& j) {
   const std::string name = j["landmark"].get<std::string>();
   if (j["first_seen_scan"].is_null()) {
@@ -370,11 +406,12 @@ int run_evaluate(int argc, char** argv) {
   if (estimate.empty()) throw Error("" + estimate_file + " holds no poses");
   const std::string report_file = report_file_of(o, estimate_file);
   std::vector<bool> claims;
-  if (!report_file.empty()) claims = converged_claims(report_file, estimate);
+  std::vector<std::string> states;
+  if (!report_file.empty()) claims = converged_claims(report_file, estimate, &states);
   const TrajectoryMetrics m =
       evaluate_trajectory(estimate, dataset.times(), dataset.poses(), mo, report_file.empty() ? nullptr : &claims);
 
-  nlohmann::json j = metrics_json(m, mo, estimate_file, dataset, report_file);
+  nlohmann::json j = metrics_json(m, mo, estimate_file, dataset, report_file, claims, states);
   const std::optional<Landmark> landmark = landmark_of(dataset);
   if (landmark) {
     j["after_landmark"] = landmark_json(*landmark, m, estimate, report_file.empty() ? nullptr : &claims, dataset, mo);
@@ -385,6 +422,7 @@ int run_evaluate(int argc, char** argv) {
   }
   std::printf("%s\n", j.dump(2).c_str());
   print_verdict(m, mo, report_file);
+  print_flag_stability(j["flag_stability"]);
   if (landmark) print_landmark_verdict(j["after_landmark"]);
   return 0;
 }

@@ -25,6 +25,7 @@
 #include "tsdf_mcl/localizer/localization_report.hpp"
 #include "tsdf_mcl/localizer/localizer.hpp"
 #include "tsdf_mcl/localizer/map_extent_checks.hpp"
+#include "tsdf_mcl/localizer/localizer_parameters.hpp"
 #include "tsdf_mcl/map/map_io.hpp"
 #include "tsdf_mcl/filter/particle_filter.hpp"
 #include "tsdf_mcl/io/particle_snapshot.hpp"
@@ -298,13 +299,19 @@ std::string summary_line(const RunSummary& summary, const LocalizerOptions& lo, 
 }  // namespace
 
 int run_localize(int argc, char** argv) {
+  // docs/parameters.md, generated from the parameter table.
+  if (argc == 3 && std::string(argv[2]) == "--help-markdown") {
+    std::printf("%s", parameters_markdown().c_str());
+    return 0;
+  }
   Options o("localize",
             "tsdf-mcl localize --map MAP --dataset DIR | --bag FILE --points TOPIC -o OUT\n"
             "           [--init global|x,y,z,roll,pitch,yaw|initial_pose] [--particles N] [--config FILE] [...]\n"
             "Writes OUT/trajectory.tum (world_T_sensor for every scan, the search phase included) and\n"
             "OUT/report.json. Angles are in radians as in nav2 (initial_pose.yaw, update_min_a, --init's roll,\n"
             "pitch, yaw); any angle also takes a unit: 90deg, 1.57rad. report.json and evaluate print degrees.\n"
-            "A filter parameter also comes from a --config file or, in the ROS node, the parameter server.",
+            "A filter parameter also comes from a --config file or, in the ROS node, the parameter server.\n"
+            "--help-all lists the expert options too; --help-markdown prints docs/parameters.md.",
             with_bag_options(localize_options()), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());

@@ -9,10 +9,6 @@
 namespace tsdf_mcl::cli {
 namespace {
 
-// A state is announced once it held for this many filter updates (the flag may flicker for an update or two
-// while a look-alike is weighed; a pipe should not get a line for each flicker). Converged is announced at once.
-constexpr std::size_t kStateHoldUpdates = 3;
-
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 std::string format(const char* fmt, ...) {
   char buf[512];
@@ -75,20 +71,20 @@ void LocalizeNarrator::scan(std::size_t k, std::size_t index, const ScanRecord& 
                  "random particles (recovery)",
                  index));
     }
-    const TrackState now = step.state;
-    candidate_updates_ = now == candidate_ ? candidate_updates_ + 1 : 1;
-    candidate_ = now;
-    if (now != reported_ && (now == TrackState::kConverged || candidate_updates_ >= kStateHoldUpdates)) {
+    // The filter's state machine holds its states with hysteresis: every change is news, with its reason.
+    if (step.state != reported_) {
       milestone = true;
-      reported_ = now;
-      if (now == TrackState::kConverged && !first_converged_) first_converged_ = index;
-      if (now != TrackState::kConverged) searching_noted_ = false;
+      reported_ = step.state;
+      if (reported_ == TrackState::kConverged && !first_converged_) first_converged_ = index;
+      if (reported_ != TrackState::kConverged) searching_noted_ = false;
     }
   }
   std::string status = std::to_string(step.updated ? step.next_particles : record.particles_before) + " particles, " +
                        to_string(reported_);
-  if (milestone)
-    status = "scan " + std::to_string(index) + ": " + to_string(reported_) + ", " + status.substr(0, status.find(','));
+  if (milestone) {
+    status = "scan " + std::to_string(index) + ": " + to_string(reported_) + " (" + to_string(step.reason) + "), " +
+             status.substr(0, status.find(','));
+  }
   progress_.update(k + 1, total_, status, milestone);
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // What tsdf-mcl localize tells a person while it runs: the progress line (scans/s, particles, state, ETA), the
-// state changes (searching -> ambiguous -> converged -> lost), why an initial pose is being searched around, and
+// state changes with their reasons (searching -> ambiguous -> converged -> lost), why an initial pose is being searched around, and
 // the per-scan lines of --verbose.
 #include <cstddef>
 #include <cstdint>
@@ -33,8 +33,6 @@ class LocalizeNarrator {
   LocalizerOptions options_;
   std::size_t total_;
   TrackState reported_ = TrackState::kSearching;
-  TrackState candidate_ = TrackState::kSearching;
-  std::size_t candidate_updates_ = 0;
   bool explained_fit_ = false;
   bool searching_noted_ = false;
   std::size_t dropped_scans_ = 0;

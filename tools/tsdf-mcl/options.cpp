@@ -23,8 +23,9 @@ Options::Options(std::string command, std::string usage, std::vector<OptionSpec>
     std::string arg = argv[i];
     // "-o PATH" is the one short option of the command-line contract (docs/architecture.md): an alias of --output.
     if (arg == "-o") arg = "--output";
-    if (arg == "--help" || arg == "-h") {
+    if (arg == "--help" || arg == "-h" || arg == "--help-all") {
       help_ = true;
+      help_all_ = help_all_ || arg == "--help-all";
       continue;
     }
     if (arg.rfind("--", 0) != 0 || arg.size() == 2) {
@@ -99,8 +100,10 @@ std::string wrap(const std::string& text, std::size_t first_column, std::size_t 
 }
 
 // The sections of a grouped --help, in this order; options of other groups follow.
-const std::vector<std::string> kGroupOrder = {"input",  "initialization", "output",
-                                              "filter", "sensor model",   "advanced"};
+const std::vector<std::string> kGroupOrder = {"input",        "initialization", "output",  "filter",
+                                              "sensor model", "decision",       "runtime", "expert"};
+// Shown by --help-all only.
+const char* const kExpertGroup = "expert";
 
 }  // namespace
 
@@ -129,7 +132,12 @@ std::string Options::help_text() const {
   for (const auto& s : specs_) {
     if (std::find(groups.begin(), groups.end(), s.group) == groups.end()) groups.push_back(s.group);
   }
+  bool hidden = false;
   for (const std::string& group : groups) {
+    if (group == kExpertGroup && !help_all_) {
+      hidden = true;
+      continue;
+    }
     out << "\n" << (group.empty() ? "options" : group + " options") << ":\n";
     for (const auto& s : specs_) {
       if (s.group != group) continue;
@@ -144,6 +152,7 @@ std::string Options::help_text() const {
       out << left << wrap(help, kHelpIndent, kHelpIndent) << "\n";
     }
   }
+  if (hidden) out << "\n--help-all also lists the expert options.\n";
   return out.str();
 }
 

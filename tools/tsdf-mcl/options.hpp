@@ -20,7 +20,8 @@ struct OptionSpec {
 class Options {
  public:
   // Parses argv[first..]: "--name value", "--name=value", "--flag", positional arguments; "-o" stands for "--output".
-  // Throws Error for an unknown option or a missing value. Sets help_requested() for --help / -h.
+  // Throws Error for an unknown option or a missing value. Sets help_requested() for --help / -h and --help-all
+  // (which also lists the options of the "expert" group).
   Options(std::string command, std::string usage, std::vector<OptionSpec> specs, int argc, char** argv, int first);
 
   bool help_requested() const { return help_; }
@@ -52,6 +53,7 @@ class Options {
   std::map<std::string, std::string> values_;
   std::vector<std::string> positional_;
   bool help_ = false;
+  bool help_all_ = false;
 };
 
 // The files the given options among `names` name (comma-separated lists split; a dataset folder's text files), for

@@ -2,7 +2,9 @@
 // Localization metrics of an estimated trajectory against ground truth in the same (map) frame: no
 // alignment, since a localizer's whole job is to be right in the map's frame.
 #include <cstddef>
+#include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "tsdf_mcl/io/dataset.hpp"
@@ -59,6 +61,26 @@ struct TrajectoryMetrics {
   std::size_t first_lost_index = 0;
   double first_lost_time = 0.0;  // its time minus the first estimate's
 };
+
+// How steady the localizer's `converged` flag is once first raised: what a robot that gates on it sees. Counted over
+// the estimates from the first claim on; "right" is evaluate's localized test (max_translation_error,
+// max_rotation_error).
+struct FlagStability {
+  std::size_t right_scans = 0;       // right estimates from the first claim on
+  std::size_t right_flagged = 0;     // of them, flagged converged
+  std::size_t flag_changes = 0;      // changes of the flag after the first claim
+  double minutes = 0.0;              // from the first claim to the last estimate
+  std::size_t lost_while_right = 0;  // right estimates whose state is `lost`
+  // The states of the right estimates that were not flagged converged (empty without states).
+  std::map<std::string, std::size_t> unflagged_right_states;
+  double flagged_share() const;       // right_flagged / right_scans (NaN without right scans)
+  double changes_per_minute() const;  // flag_changes / minutes (NaN for a zero span)
+};
+
+// FlagStability of `m` (which must have claims: evaluate_trajectory with converged_claims); `states`, if given, one
+// state name per estimate (report.json's `state`). Without a claim, all zero.
+FlagStability flag_stability(const TrajectoryMetrics& m, const std::vector<bool>& claims,
+                             const std::vector<std::string>* states = nullptr);
 
 // The index of the stamp in `sorted_times` nearest to `time`, if it lies within `tolerance` (or within 1e-6 s: an
 // exact match); nullopt otherwise. The one matcher of estimates to ground truth (evaluate, render).

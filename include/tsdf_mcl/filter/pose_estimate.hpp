@@ -5,7 +5,7 @@
 //
 // Modes are connected components of occupied cells of a grid over (x, y, z, yaw) (cells sharing a face, yaw
 // wrapping around), separately for each sensor axis that may point up (a global search without a known
-// gravity holds upside-down and sideways hypotheses too); the component with the largest total weight wins. Its
+// gravity holds upside-down and sideways places too); the component with the largest total weight wins. Its
 // rotation mean is the eigenvector of the largest eigenvalue of Σ w q qᵀ (Markley et al. 2007), which needs
 // no sign alignment and is exact for the chordal distance.
 #include <Eigen/Core>
@@ -32,9 +32,9 @@ struct PoseEstimateOptions {
   double converged_weight = 0.8;
   double converged_std_xyz = 0.25;         // m
   double converged_std_angle = 0.0872665;  // rad (5°)
-  std::size_t max_hypotheses = 8;          // modes described in PoseEstimate::hypotheses (the heaviest)
+  std::size_t max_places = 8;          // modes described in PoseEstimate::places (the heaviest)
   // Particles lighter than this share of the heaviest take no part in mode finding (during global localization
-  // most of the set). Low, so that a faint hypothesis (a look-alike the challengers just found) is a mode.
+  // most of the set). Low, so that a faint place (a look-alike the challengers just found) is a mode.
   double min_relative_weight = 1e-30;
 
   void validate() const;  // throws Error naming the parameter
@@ -48,7 +48,7 @@ inline double explained_share(double inlier_ratio, double coverage) {
 }
 
 // One mode of the belief: a place (and orientation) the particles say the sensor may be.
-struct Hypothesis {
+struct Place {
   Pose pose = Pose::Identity();  // weighted mean of the mode's particles (ParticleFilter: refined onto the map)
   Matrix6d covariance = Matrix6d::Zero();  // as PoseEstimate::covariance
   double weight = 0.0;                     // share of the total weight
@@ -65,13 +65,13 @@ struct Hypothesis {
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();
 };
 
-// Whether a hypothesis is compact: its spreads within converged_std_xyz and converged_std_angle.
-inline bool compact(const Hypothesis& h, const PoseEstimateOptions& o) {
+// Whether a place is compact: its spreads within converged_std_xyz and converged_std_angle.
+inline bool compact(const Place& h, const PoseEstimateOptions& o) {
   return h.std_position <= o.converged_std_xyz && h.std_rotation <= o.converged_std_angle;
 }
 
-// explained_share of a hypothesis at its pose.
-inline double explained_share(const Hypothesis& h) { return explained_share(h.inlier_ratio, h.coverage); }
+// explained_share of a place at its pose.
+inline double explained_share(const Place& h) { return explained_share(h.inlier_ratio, h.coverage); }
 
 struct PoseEstimate {
   Pose pose = Pose::Identity();
@@ -86,24 +86,24 @@ struct PoseEstimate {
   // The mode is concentrated (PoseEstimateOptions); ParticleFilter adds its own conditions (fit, persistence,
   // recovery), see particle_filter.hpp.
   bool converged = false;
-  double inlier_ratio = std::numeric_limits<double>::quiet_NaN();       // of the dominant mode (hypotheses[0])
+  double inlier_ratio = std::numeric_limits<double>::quiet_NaN();       // of the dominant mode (places[0])
   double see_through_ratio = std::numeric_limits<double>::quiet_NaN();  // likewise
   double coverage = std::numeric_limits<double>::quiet_NaN();           // map coverage at `pose`
-  // The heaviest modes, best first, at most max_hypotheses: "two rooms, 55 % / 45 %".
-  std::vector<Hypothesis> hypotheses;
+  // The heaviest modes, best first, at most max_places: "two rooms, 55 % / 45 %".
+  std::vector<Place> places;
 };
 
-// Fills the estimate's summary from its dominant hypothesis (hypotheses[0], which must exist): pose (unless
+// Fills the estimate's summary from its dominant place (places[0], which must exist): pose (unless
 // best_particle, whose pose the estimator sets), covariance, mode weight and particles, spreads and fits. Returns
-// whether that hypothesis is concentrated by `options` (converged_weight, converged_std_xyz, converged_std_angle).
-bool take_dominant_hypothesis(PoseEstimate& estimate, const PoseEstimateOptions& options);
-// The same from hypotheses[index] (which must exist).
-bool take_hypothesis(PoseEstimate& estimate, std::size_t index, const PoseEstimateOptions& options);
+// whether that place is concentrated by `options` (converged_weight, converged_std_xyz, converged_std_angle).
+bool take_dominant_place(PoseEstimate& estimate, const PoseEstimateOptions& options);
+// The same from places[index] (which must exist).
+bool take_place(PoseEstimate& estimate, std::size_t index, const PoseEstimateOptions& options);
 
-// Which hypothesis (heaviest first) the estimate reports, given where the odometry carries the last estimate
-// (`prediction`): the heaviest, unless it lies elsewhere (beyond max_jump_m or max_jump_rad) and the hypothesis
+// Which place (heaviest first) the estimate reports, given where the odometry carries the last estimate
+// (`prediction`): the heaviest, unless it lies elsewhere (beyond max_jump_m or max_jump_rad) and the place
 // that continues the last estimate holds more than 1 / switch_ratio of its share. Then that one.
-std::size_t estimate_place(const std::vector<Hypothesis>& hypotheses, const Pose& prediction, double switch_ratio,
+std::size_t estimate_place(const std::vector<Place>& places, const Pose& prediction, double switch_ratio,
                            double max_jump_m, double max_jump_rad);
 
 // Weighted rotation mean (Markley); weights need not be normalized. Throws Error for an empty or zero-weight set.
@@ -119,9 +119,9 @@ class PoseEstimator {
   // heaviest take no part in mode finding.
   PoseEstimate estimate(const ParticleArrays& particles, const double* weights, std::size_t n);
   const PoseEstimateOptions& options() const { return options_; }
-  // Particle i's hypothesis in the last estimate (an index into PoseEstimate::hypotheses), or -1 for a particle
+  // Particle i's place in the last estimate (an index into PoseEstimate::places), or -1 for a particle
   // of a lighter mode or of negligible weight.
-  std::int32_t hypothesis_of(std::size_t particle) const;
+  std::int32_t place_of(std::size_t particle) const;
 
   using Cell = std::array<int, 5>;  // x, y, z, yaw, up axis
 
@@ -134,10 +134,18 @@ class PoseEstimator {
   void bin_particles(const ParticleArrays& p, const double* w, std::size_t n, double threshold);
   // Connected components of the cells over face neighbours (union-find, each rooted at its lowest cell).
   void join_neighbour_cells();
-  // The components by weight: the heaviest max_hypotheses ranked (root_rank_); returns how many, `modes` all.
+  // The components by weight: the heaviest max_places ranked (root_rank_); returns how many, `modes` all.
   std::size_t rank_components(std::size_t* modes);
-  // Hypotheses 0..k-1 (the heaviest components, ranked) from their particles.
-  std::vector<Hypothesis> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
+  // The weighted sums of each of the k places' particles (the first pass of describe()).
+  struct Moments {
+    double weight = 0.0;
+    std::size_t particles = 0;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    Eigen::Matrix4d rotation = Eigen::Matrix4d::Zero();  // sum w q q^T (Markley's mean)
+  };
+  std::vector<Moments> moments(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k) const;
+  // Places 0..k-1 (the heaviest components, ranked) from their particles.
+  std::vector<Place> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
                                    double total) const;
   PoseEstimateOptions options_;
   struct Slot {
@@ -153,7 +161,7 @@ class PoseEstimator {
   std::vector<Cell> particle_cells_;          // each particle's cell coordinates (scratch)
   std::vector<std::uint64_t> particle_keys_;  // and their hashes
   std::vector<std::uint32_t> particle_cell_;
-  std::vector<std::int32_t> root_rank_;  // hypothesis index of each component root, -1 beyond max_hypotheses
+  std::vector<std::int32_t> root_rank_;  // place index of each component root, -1 beyond max_places
   int yaw_cells_ = 12;
 };
 

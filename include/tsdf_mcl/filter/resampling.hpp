@@ -27,7 +27,7 @@ std::string to_string(ResamplingMethod method);
 void resample(ResamplingMethod method, const double* weights, std::size_t n, std::size_t count, Rng& rng,
               std::uint32_t* ancestors);
 
-// Resampling group by group (one group per hypothesis, so a hypothesis keeps the particle count it was given
+// Resampling group by group (one group per place, so a place keeps the particle count it was given
 // whatever its weight): counts[g] ancestors drawn from group g's particles by their weights, written group after
 // group (group 0's first). group[i] in [0, counts.size()); a group whose weights sum to zero must get count 0.
 // Keeps its buffers between calls.

@@ -126,7 +126,7 @@ WallTilt select_walls(const std::vector<Eigen::Vector3f>& normals, const Pose& w
 
 // The pose near `world_T_sensor` at which `points` fit the map best: a few damped Gauss-Newton steps on their
 // distances (trilinear, Huber-weighted beyond 0.1 m; points in unknown space or beyond the truncation band take
-// no part). Comparing two hypotheses at their refined poses compares the places, not how well each hypothesis's
+// no part). Comparing two places at their refined poses compares them, not how well each one's
 // particles happen to be aligned: the one with more particles has the better-placed mean. Returns the input
 // pose where too few points constrain it. With `walls`, their residuals join the points' (WallTilt).
 Pose refine_pose(const TsdfMap& map, const Pose& world_T_sensor, const std::vector<Eigen::Vector3f>& points,

@@ -63,6 +63,14 @@ class SubsetFirstWeighing {
   void weigh_chosen(SensorEvaluator& evaluator, const std::vector<std::uint32_t>& chosen,
                     const std::vector<Eigen::Vector3f>& points, const EndpointModel& model, UpdateTimings& sum);
 
+  // Which pass first weighs each of m points (pass_of_point_): the first's, the middle's (where there is one), the rest.
+  void assign_passes(std::size_t m, bool middle);
+  // The points of one pass into subset_; returns how many.
+  std::size_t points_of_pass(const std::vector<Eigen::Vector3f>& points, std::uint8_t pass);
+  // A global search's middle pass over middle_ and then the rest of the scan over the best of them (refined_).
+  void weigh_middle_and_rest(SensorEvaluator& evaluator, std::size_t n, const std::vector<Eigen::Vector3f>& points,
+                             const EndpointModel& model, std::size_t first, UpdateTimings& sum);
+
   SubsetFirstOptions options_;
   std::vector<std::uint32_t> refined_;
   std::vector<std::uint32_t> middle_;

@@ -1,6 +1,6 @@
 #pragma once
-// What the localizer can say about its track, in one word, for the CLI summary, report.json and a ROS node's
-// /diagnostics. Classified by the filter (ParticleFilter: FilterStep::state), never by a frontend.
+// What the localizer can say about its track, in one word and a reason, for the CLI, report.json, the ROS nodes'
+// /diagnostics and Python. Decided by the filter's state machine (track_state_machine.hpp), never by a frontend.
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -8,19 +8,37 @@
 namespace tsdf_mcl {
 
 enum class TrackState {
-  kSearching,  // no track yet: a global belief, or a search started again after a wrong lock
-  kTracking,   // a track that converged before follows the map, not (or not yet again) converged
-  kAmbiguous,  // another place explains the scans nearly as well, or a challenger is being proven (track_keeper.hpp)
-  kConverged,  // ConvergenceMonitor's promise: the track is right as far as the data can tell
-  kUnmapped,   // tracking through unmapped space: the map covers too little of the scan, odometry carries the pose
-               // and its covariance grows
-  kLost,       // the fit says the track is wrong: recovery searches the map again
+  kSearching,  // no track to claim yet: the belief is spread, or a place holds it but has not yet earned the claim
+  kAmbiguous,  // places the scans have not told apart, or a challenger of the track is being weighed
+  kConverged,  // the track is right as far as the data can tell: a robot may act on it
+  kUnmapped,   // a converged track carried through space the map does not cover (odometry holds the pose)
+  kLost,       // the fit says the track is wrong: the filter searches the map again
 };
-constexpr std::size_t kTrackStates = 6;
+constexpr std::size_t kTrackStates = 5;
 
-// "searching", "tracking", "ambiguous", "converged", "unmapped", "lost".
+// Why the state is what it is; every change of state carries one.
+enum class StateReason {
+  kSpread,           // no compact place holds the belief
+  kPersisting,       // a place holds the belief, not yet for converged_min_updates updates
+  kPoorFit,          // the place explains too little of the scan to be claimed (inliers or coverage)
+  kSearchPending,    // the background search has not yet weighed the place
+  kRivalUndecided,   // a look-alike the scans have not refuted
+  kSecondPlace,      // another place holds ambiguous_weight of the belief
+  kChangeOfMind,     // the track moved to another place: it must hold over converged_travel_after_jump first
+  kRivalProven,      // a look-alike proved better than the track
+  kChallenged,       // converged; the belief moved to a challenger that is not proven: the estimate holds the track
+  kProven,           // converged: every rival refuted, the place held, the fit plausible
+  kMapCoversLittle,  // the map covers too little of the scan at the track
+  kImplausibleFit,   // the fit at the track is implausible where the map covers the scan
+  kRecovery,         // recovery moved most of the belief elsewhere
+};
+constexpr std::size_t kStateReasons = 13;
+
+// "searching", "ambiguous", "converged", "unmapped", "lost".
 const char* to_string(TrackState state);
 // The inverse of to_string (nullopt for anything else).
 std::optional<TrackState> parse_track_state(const std::string& name);
+// A short phrase, e.g. "a look-alike not yet refuted".
+const char* to_string(StateReason reason);
 
 }  // namespace tsdf_mcl

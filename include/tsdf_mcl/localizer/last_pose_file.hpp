@@ -63,8 +63,8 @@ class LastPoseFile {
 };
 
 // Why the first filter update after starting at `initial` says the scan does not fit there, or "" when it fits: its
-// best hypothesis lies more than a metre away (the background search found a better place), or it fits fewer of the
-// scan's points than convergence needs (convergence.min_inlier_ratio).
+// best place lies more than a metre away (the background search found a better place), or it fits fewer of the
+// scan's points than convergence needs (converged_min_inliers).
 std::string initial_pose_misfit(const FilterStep& step, const LocalizerOptions& options, const Pose& initial);
 
 }  // namespace tsdf_mcl

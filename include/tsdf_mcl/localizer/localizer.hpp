@@ -8,7 +8,7 @@
 //   Localizer localizer(map, options);                      // builds the evaluator: Vulkan, else the CPU
 //   for (each scan) {
 //     const ScanRecord& r = localizer.process(time, points, odom_T_sensor);
-//     use(r.step.estimate.pose, r.step.estimate.covariance, r.step.estimate.converged, r.step.estimate.hypotheses);
+//     use(r.step.estimate.pose, r.step.estimate.covariance, r.step.estimate.converged, r.step.estimate.places);
 //   }
 //   localizer.reset_to(pose);       // an operator's initial pose ("/initialpose")
 //   localizer.reset_global();       // search the whole map again from the next scan ("global_localization")
@@ -45,7 +45,7 @@ struct ScanRecord {
   PreprocessingStats points;         // input, in range, thinned, used
   std::size_t particles_before = 0;  // particles when the scan arrived
   double preprocess_ms = 0.0;
-  FilterStep step;  // updated or held, the estimate with its hypotheses, timings, counts
+  FilterStep step;  // updated or held, the estimate with its places, timings, counts
 };
 
 // How the filter was started (the last initialization: global search or local).

@@ -29,6 +29,10 @@ struct ParameterSpec {
 // Every parameter localizer_options_from() reads, in --help order (essentials first within a group).
 const std::vector<ParameterSpec>& localizer_parameter_specs();
 
+// docs/parameters.md: every parameter of the table by group, with its value, default and help, and the amcl aliases
+// (`tsdf-mcl localize --help-markdown` prints it; a test keeps the file equal to it).
+std::string parameters_markdown();
+
 // ROS 1 amcl's names accepted for ours where the meaning carries over (laser_max_beams -> max_beams, odom_alpha1
 // -> alpha1, kld_err -> pf_err, ...). odom_model_type's values (diff, omni, diff-corrected, omni-corrected) all
 // mean motion_model odometry.

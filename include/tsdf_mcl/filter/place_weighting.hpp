@@ -1,10 +1,10 @@
 #pragma once
-// Evidence between hypotheses, kept apart from the evidence within one.
+// Evidence between places, kept apart from the evidence within one.
 //
 // The joint likelihood of a scan separates a place from its look-alike far too confidently, and noisily: the
 // marginal likelihood of a mode is dominated by its best-aligned particles, so of two identical rooms the one
 // that happens to hold the luckier particles gains nats by chance every scan, and a random walk of such gains
-// decides, within a few hundred scans, a question the data cannot answer. So a hypothesis's share moves by the
+// decides, within a few hundred scans, a question the data cannot answer. So a place's share moves by the
 // fit of the scan at its mean pose (the mode's own estimate, far steadier than its best particle), counted as a
 // scan worth a few independent points; the particles inside it keep their relative weights, which is what
 // refines the pose. Equally good places stay equally likely until a view tells them apart; a clearly worse
@@ -16,7 +16,7 @@
 namespace tsdf_mcl {
 
 // `prior` and `post`: log weights of n particles before and after one update (any offsets); group[i] in
-// [0, evidence.size()) names particle i's hypothesis. Shifts `post` by a constant per group so that every
+// [0, evidence.size()) names particle i's place. Shifts `post` by a constant per group so that every
 // group's share becomes prior_share * exp(evidence[g]), renormalized (the shares `post` held are replaced).
 // Returns the groups' new shares; groups without particles get 0.
 std::vector<double> reweight_groups(const double* prior, double* post, const std::int32_t* group, std::size_t n,
@@ -57,7 +57,7 @@ struct PlaceJudgement {
   double inlier_ratio = 0.0;  // share of those points within the inlier distance of a surface
 };
 
-// The places that the best-judged place beats decisively (weigh_hypotheses, before the belief first concentrates),
+// The places that the best-judged place beats decisively (filter_places.cpp, before the belief first concentrates),
 // and in `best` that place (places.size() where none). The best-judged place is the one with the highest `evidence`
 // (per point, one per place and then the rest's), if the rest's is no higher; decisive: both compact, neither
 // waiting, the map covering at least `min_coverage` of the scan at both, and the best's inlier ratio higher by at

@@ -1,23 +1,16 @@
-// ParticleFilter's global search: the first scan's hypotheses screened over the map's free space, the best
-// kept and climbed (particle_filter.hpp).
-#include "tsdf_mcl/filter/particle_filter.hpp"
-
+// ParticleFilter's global search: the first scan's hypotheses screened over the map's free space, the best kept and
+// climbed (filter_core.hpp).
 #include <algorithm>
-#include <Eigen/Eigenvalues>
 #include <cmath>
-#include <limits>
-#include <string>
 
-#include "tsdf_mcl/core/stopwatch.hpp"
-#include "tsdf_mcl/sensor/weight_reduction.hpp"
+#include "filter_core.hpp"
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/core/random.hpp"
 #include "tsdf_mcl/filter/motion_model.hpp"
-#include "tsdf_mcl/filter/scan_fit.hpp"
 
 namespace tsdf_mcl {
 
-void ParticleFilter::initialize_global() {
+void ParticleFilter::Core::initialize_global() {
   GlobalProposal& g = proposal();
   g.use_uniform();
   g.sample(evaluator_.particles(), 0, params_.initial_particles, params_.seed, step_);
@@ -25,7 +18,7 @@ void ParticleFilter::initialize_global() {
   start(params_.initial_particles);
 }
 
-void ParticleFilter::initialize_global(const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras) {
+void ParticleFilter::Core::initialize_global(const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras) {
   if (points.empty()) throw Error("global initialization: the scan has no points");
   GlobalProposal& g = proposal();
   if (extras.dense || extras.imu_up)
@@ -43,6 +36,14 @@ void ParticleFilter::initialize_global(const std::vector<Eigen::Vector3f>& point
   }
   ++step_;
   start(n);
+}
+
+EndpointModel ParticleFilter::Core::screening_model() const {
+  EndpointModel wide = params_.sensor;
+  wide.sigma_hit = std::max(wide.sigma_hit, params_.global_search.screen_sigma);
+  wide.weight_exponent = 1.0f;
+  wide.unknown_distance = map_.truncation();  // a smooth basin (EndpointModel::unknown_distance)
+  return wide;
 }
 
 namespace {
@@ -70,7 +71,7 @@ std::vector<Eigen::Vector3f> screening_points(const std::vector<Eigen::Vector3f>
 
 }  // namespace
 
-void ParticleFilter::climb(std::size_t n, const std::vector<Eigen::Vector3f>& points) {
+void ParticleFilter::Core::climb(std::size_t n, const std::vector<Eigen::Vector3f>& points) {
   const GlobalSearchOptions& o = params_.global_search;
   if (o.climb_rounds == 0) return;
   constexpr std::size_t kTries = 3;  // jittered copies per particle and round
@@ -78,10 +79,7 @@ void ParticleFilter::climb(std::size_t n, const std::vector<Eigen::Vector3f>& po
     capacity_ = (kTries + 1) * n;
     evaluator_.reserve(capacity_, points_capacity_);
   }
-  EndpointModel wide = params_.sensor;
-  wide.sigma_hit = std::max(wide.sigma_hit, o.screen_sigma);
-  wide.weight_exponent = 1.0f;
-  wide.unknown_distance = map_.truncation();  // a smooth basin (EndpointModel::unknown_distance)
+  const EndpointModel wide = screening_model();
   std::vector<Eigen::Vector3f> subset;
   const std::size_t every = std::max<std::size_t>(1, points.size() / (2 * o.screen_points));
   for (std::size_t i = 0; i < points.size() && subset.size() < 2 * o.screen_points; i += every)
@@ -127,7 +125,7 @@ void ParticleFilter::climb(std::size_t n, const std::vector<Eigen::Vector3f>& po
   }
 }
 
-void ParticleFilter::reserve_search(std::size_t candidates) {
+void ParticleFilter::Core::reserve_search(std::size_t candidates) {
   const GlobalProposal& g = proposal();
   std::size_t largest = 0;
   for (std::size_t b = 0; b < g.blocks(); ++b) {
@@ -140,7 +138,7 @@ void ParticleFilter::reserve_search(std::size_t candidates) {
   }
 }
 
-void ParticleFilter::search(std::size_t candidates, std::size_t keep, const std::vector<Eigen::Vector3f>& points,
+void ParticleFilter::Core::search(std::size_t candidates, std::size_t keep, const std::vector<Eigen::Vector3f>& points,
                             const ParticleArrays& dst, std::size_t offset) {
   const GlobalSearchOptions& o = params_.global_search;
   const GlobalProposal& g = proposal();
@@ -160,10 +158,7 @@ void ParticleFilter::search(std::size_t candidates, std::size_t keep, const std:
   });
   for (std::size_t r = 0; assigned < keep; ++r, ++assigned) ++keep_of[remainder[r % blocks].second];
 
-  EndpointModel wide = params_.sensor;
-  wide.sigma_hit = std::max(wide.sigma_hit, o.screen_sigma);
-  wide.weight_exponent = 1.0f;
-  wide.unknown_distance = map_.truncation();  // a smooth basin (EndpointModel::unknown_distance)
+  const EndpointModel wide = screening_model();
   const ParticleArrays scratch = evaluator_.particles();
   std::vector<std::uint32_t> order;
   std::size_t written = 0;

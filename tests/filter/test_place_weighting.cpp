@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "tsdf_mcl/core/error.hpp"
-#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/place_weighting.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -21,7 +21,7 @@ double share_of(const std::vector<double>& post, const std::vector<std::int32_t>
   return in / all;
 }
 
-TEST(HypothesisWeighting, SharesFollowPriorTimesEvidenceAndGroupsKeepTheirInsides) {
+TEST(PlaceWeighting, SharesFollowPriorTimesEvidenceAndGroupsKeepTheirInsides) {
   // Group 0 holds 3/4 of the prior, group 1 1/4; the update made group 1's particles far likelier (the post
   // shares would be 0.01 / 0.99), but the evidence says e^1 in favour of group 1.
   const std::vector<std::int32_t> group = {0, 0, 0, 1, 1};
@@ -48,7 +48,7 @@ TEST(HypothesisWeighting, SharesFollowPriorTimesEvidenceAndGroupsKeepTheirInside
   EXPECT_THROW(reweight_groups(prior.data(), third.data(), group.data(), 5, {0.0, std::nan("")}), Error);
 }
 
-TEST(HypothesisWeighting, APlaceThatWaitsKeepsItsShareAgainstEveryPlace) {
+TEST(PlaceWeighting, APlaceThatWaitsKeepsItsShareAgainstEveryPlace) {
   // The symmetric building's drone (measured): the right track (place 1, 0.96 of the belief) at the frontier of the
   // map's band, its mirror (place 0) beating the best-total third place (2, the reference) by 54 nats on 512 points.
   const double points = 512.0;
@@ -78,7 +78,7 @@ TEST(HypothesisWeighting, APlaceThatWaitsKeepsItsShareAgainstEveryPlace) {
   EXPECT_THROW(place_evidence(100.0, paired, waits, 0.0), Error);
 }
 
-TEST(HypothesisWeighting, ADecisiveViewNeedsTwoJudgesAFullMapAndCompactPlaces) {
+TEST(PlaceWeighting, ADecisiveViewNeedsTwoJudgesAFullMapAndCompactPlaces) {
   // The two storeys of the two-storey VLP-16 handheld run at the staircase (measured): the true storey (place 0, the
   // best judged) explains 0.98 of its observed points, the other 0.94; a third, spread place; the rest.
   const PlaceJudgement storey{true, false, 0.97, 0.98};
@@ -112,7 +112,7 @@ TEST(HypothesisWeighting, ADecisiveViewNeedsTwoJudgesAFullMapAndCompactPlaces) {
   EXPECT_THROW(decisively_beaten({storey, twin}, evidence, gap, covered, best), Error);
 }
 
-TEST(HypothesisWeighting, ADecisiveViewTurnsTheOddsAndNoFurther) {
+TEST(PlaceWeighting, ADecisiveViewTurnsTheOddsAndNoFurther) {
   // The storeys above: the true one (0) holds 0.3 of the belief against 0.7 and beats the other decisively.
   const std::vector<double> evidence = {-0.80, -0.82, -1.50, -1.20};
   const std::vector<double> prior = {std::log(0.3), std::log(0.7), std::log(1e-3), std::log(1e-3)};
@@ -150,7 +150,7 @@ TEST(HypothesisWeighting, ADecisiveViewTurnsTheOddsAndNoFurther) {
   EXPECT_THROW(turn_odds(3, {1}, evidence, prior, full, turn, nats), Error);
 }
 
-TEST(HypothesisWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
+TEST(PlaceWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
   // Two identical wings (0, 1) that a uniform start's guesses found 2 : 1, a look-alike 0.05 worse (2), one the map
   // hardly covers (3), a spread mode (4), then the rest.
   const std::vector<PlaceJudgement> places = {{true, false, 0.98, 1.00},
@@ -195,7 +195,7 @@ TEST(HypothesisWeighting, TiedPlacesStartEqualWhateverTheParticlesHeld) {
 // The pairs whose evidence waits: a place mostly off the observed map (either side of the pair), and a pair where the
 // map covers clearly less of the scan at one place, as a skipped room's door comes into view. Only where both fit as a
 // frontier does: a place that fits its observed points badly is judged as before.
-TEST(HypothesisWeighting, APairWaitsWhereADoorToUnobservedSpaceComesIntoView) {
+TEST(PlaceWeighting, APairWaitsWhereADoorToUnobservedSpaceComesIntoView) {
   const double most = 0.75, gap = 0.05;
   // 0: the reference, covered; 1: its twin, covered; 2: a door in view; 3: the same gap, fitting badly;
   // 4: mostly unobserved; 5: covered, fitting badly (refuted).

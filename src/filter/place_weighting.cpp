@@ -1,4 +1,4 @@
-#include "tsdf_mcl/filter/hypothesis_weighting.hpp"
+#include "tsdf_mcl/filter/place_weighting.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,7 +19,7 @@ bool judged(const PlaceJudgement& p, double min_coverage) {
 std::vector<double> group_log_sums(const double* v, const std::int32_t* group, std::size_t n, std::size_t groups) {
   double max = kMinusInf;
   for (std::size_t i = 0; i < n; ++i) {
-    if (group[i] < 0 || static_cast<std::size_t>(group[i]) >= groups) throw Error("hypothesis weighting: bad group");
+    if (group[i] < 0 || static_cast<std::size_t>(group[i]) >= groups) throw Error("place weighting: bad group");
     max = std::max(max, v[i]);
   }
   std::vector<double> sum(groups, 0.0);
@@ -30,8 +30,8 @@ std::vector<double> group_log_sums(const double* v, const std::int32_t* group, s
 
 std::vector<double> place_evidence(double reference_total, const std::vector<double>& paired,
                                    const std::vector<bool>& waits, double points) {
-  if (paired.size() != waits.size()) throw Error("hypothesis weighting: one wait flag per place");
-  if (!(points > 0.0)) throw Error("hypothesis weighting: the evidence needs points");
+  if (paired.size() != waits.size()) throw Error("place weighting: one wait flag per place");
+  if (!(points > 0.0)) throw Error("place weighting: the evidence needs points");
   std::vector<double> evidence(paired.size());
   double best_judged = reference_total / points;  // the reference's own, also where every pair waits
   for (std::size_t r = 0; r < paired.size(); ++r) {
@@ -46,8 +46,8 @@ std::vector<double> place_evidence(double reference_total, const std::vector<dou
 
 std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::size_t reference, double most_of_the_scan,
                                 double coverage_gap) {
-  if (places.empty()) return {};  // no hypotheses: nothing to pair
-  if (reference >= places.size()) throw Error("hypothesis weighting: the reference must be a place");
+  if (places.empty()) return {};  // no places: nothing to pair
+  if (reference >= places.size()) throw Error("place weighting: the reference must be a place");
   const auto mostly_unobserved = [&](const FrontierView& p) {
     return p.coverage < most_of_the_scan && p.fits_as_frontier;
   };
@@ -65,7 +65,7 @@ std::vector<bool> waiting_pairs(const std::vector<FrontierView>& places, std::si
 std::vector<std::size_t> decisively_beaten(const std::vector<PlaceJudgement>& places,
                                            const std::vector<double>& evidence, double gap, double min_coverage,
                                            std::size_t& best) {
-  if (evidence.size() != places.size() + 1) throw Error("hypothesis weighting: one evidence per place and the rest");
+  if (evidence.size() != places.size() + 1) throw Error("place weighting: one evidence per place and the rest");
   best = places.size();
   std::vector<std::size_t> beaten;
   if (!(gap > 0.0) || places.empty()) return beaten;
@@ -86,13 +86,13 @@ void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const s
                const std::vector<double>& prior_log_share, double full, double turn_log_odds,
                std::vector<double>& nats) {
   if (evidence.size() != nats.size() || prior_log_share.size() != nats.size())
-    throw Error("hypothesis weighting: one evidence, share and count per place and the rest");
+    throw Error("place weighting: one evidence, share and count per place and the rest");
   if (beaten.empty()) return;
-  if (best + 1 >= nats.size()) throw Error("hypothesis weighting: the best place must be a place");
+  if (best + 1 >= nats.size()) throw Error("place weighting: the best place must be a place");
   const std::size_t b = best;
   if (!std::isfinite(prior_log_share[b])) return;
   for (const std::size_t r : beaten) {
-    if (r + 1 >= nats.size() || r == b) throw Error("hypothesis weighting: a beaten place must be another place");
+    if (r + 1 >= nats.size() || r == b) throw Error("place weighting: a beaten place must be another place");
     if (!std::isfinite(prior_log_share[r])) continue;
     // r's nats that leave b's odds over r at turn_log_odds; the count in full; what the ordinary count gave.
     const double turned = (prior_log_share[b] + nats[b]) - prior_log_share[r] - turn_log_odds;
@@ -104,7 +104,7 @@ void turn_odds(std::size_t best, const std::vector<std::size_t>& beaten, const s
 std::size_t even_tied_places(const std::vector<PlaceJudgement>& places, double gap, double min_coverage,
                              const std::vector<double>& prior_log_share, std::vector<double>& nats) {
   if (prior_log_share.size() != places.size() + 1 || nats.size() != places.size() + 1)
-    throw Error("hypothesis weighting: one share and count per place and the rest");
+    throw Error("place weighting: one share and count per place and the rest");
   if (!(gap > 0.0)) return 0;
   const auto even = [&](std::size_t r) { return judged(places[r], min_coverage) && std::isfinite(prior_log_share[r]); };
   double best = -1.0;
@@ -130,7 +130,7 @@ std::vector<double> reweight_groups(const double* prior, double* post, const std
                                     const std::vector<double>& evidence) {
   const std::size_t groups = evidence.size();
   for (double e : evidence) {
-    if (!std::isfinite(e)) throw Error("hypothesis weighting: evidence must be finite");
+    if (!std::isfinite(e)) throw Error("place weighting: evidence must be finite");
   }
   const std::vector<double> before = group_log_sums(prior, group, n, groups);
   const std::vector<double> after = group_log_sums(post, group, n, groups);

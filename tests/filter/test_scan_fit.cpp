@@ -1,5 +1,5 @@
-// Unknown is unknown, and a jump needs proof: map evidence per scan point (RayFit), paired evidence between two
-// poses on the points both observe, the TrackKeeper's decisions, the TrackState names.
+// scan_fit.hpp: map evidence per scan point (RayFit: unknown is unknown) and paired evidence between two poses on the
+// points both observe.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,8 +12,6 @@
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/filter/scan_fit.hpp"
 #include "tsdf_mcl/sensor/sensor_evaluator.hpp"
-#include "tsdf_mcl/filter/track_keeper.hpp"
-#include "tsdf_mcl/filter/track_state.hpp"
 
 namespace tsdf_mcl {
 namespace {
@@ -258,70 +256,6 @@ TEST(PairedEvidence, APoseOffTheMapGainsNothing) {
   const PairedEvidence e = paired_evidence(log_off, obs_off, log_truth, obs_truth, 0.0);
   EXPECT_GT(e.shared, 0u);
   EXPECT_LT(e.sum, 0.0) << "the off-map pose explains the shared points worse";
-}
-
-TEST(TrackKeeper, AJumpNeedsEvidenceOverTravel) {
-  TrackKeeperOptions o;
-  o.proof_travel_m = 1.5;
-  o.proof_nats = 3.0;
-  TrackKeeper k(o);
-  const Pose step = pose_from_xyz_rpy(0.5, 0.0, 0.0, 0.0, 0.0, 0.0);
-  const Pose far = pose_from_xyz_rpy(10.0, 5.0, 0.0, 0.0, 0.0, 0.0);
-  EXPECT_EQ(k.update(step, Pose::Identity(), false, far, 10.0, false), TrackKeeper::Decision::kNone);
-  k.start(Pose::Identity());
-  EXPECT_EQ(k.update(step, k.predict(step), true, k.predict(step), 0.0, false), TrackKeeper::Decision::kFollow);
-  EXPECT_NEAR(k.pose().translation().x(), 0.5, 1e-12);
-  // A challenger far away with strong evidence per scan: held until 1.5 m of travel have passed.
-  std::size_t updates = 0;
-  TrackKeeper::Decision d = TrackKeeper::Decision::kHold;
-  while (d == TrackKeeper::Decision::kHold && updates < 20) {
-    const Pose continuation = k.predict(step);
-    d = k.update(step, continuation, false, far, 2.0, false);
-    ++updates;
-    if (d == TrackKeeper::Decision::kHold) {
-      EXPECT_NEAR((k.pose().translation() - continuation.translation()).norm(), 0.0, 1e-12) << "follows the track";
-      EXPECT_TRUE(k.challenged());
-    }
-  }
-  EXPECT_EQ(d, TrackKeeper::Decision::kAccept);
-  EXPECT_EQ(updates, 4u) << "travel counts from the update the challenge began: 3 x 0.5 m";
-  EXPECT_NEAR(k.pose().translation().x(), 10.0, 1e-12);
-  EXPECT_FALSE(k.challenged());
-}
-
-TEST(TrackKeeper, WeakEvidenceHoldsStrongCounterEvidenceRestoresAFailedTrackYields) {
-  TrackKeeperOptions o;
-  TrackKeeper k(o);
-  const Pose step = pose_from_xyz_rpy(0.5, 0.0, 0.0, 0.0, 0.0, 0.0);
-  const Pose far = pose_from_xyz_rpy(10.0, 5.0, 0.0, 0.0, 0.0, 0.0);
-  k.start(Pose::Identity());
-  for (int i = 0; i < 10; ++i) {  // 5 m of travel, a challenger that never proves better than by 0.2 nats a scan
-    ASSERT_EQ(k.update(step, k.predict(step), false, far, 0.2 * (i % 2 ? 1.0 : -1.0), false),
-              TrackKeeper::Decision::kHold);
-  }
-  EXPECT_EQ(k.update(step, k.predict(step), false, far, -2.0, false), TrackKeeper::Decision::kHold);
-  EXPECT_EQ(k.update(step, k.predict(step), false, far, -2.0, false), TrackKeeper::Decision::kRestore);
-  EXPECT_FALSE(k.challenged());
-  // A track that fails where the map covers the scan (a kidnapping): the challenger wins after two updates,
-  // whatever the travel.
-  EXPECT_EQ(k.update(Pose::Identity(), k.pose(), false, far, 0.0, true), TrackKeeper::Decision::kHold);
-  EXPECT_EQ(k.update(Pose::Identity(), k.pose(), false, far, 0.0, true), TrackKeeper::Decision::kAccept);
-  // Off: every jump at once.
-  o.proof_travel_m = 0.0;
-  TrackKeeper off(o);
-  off.start(Pose::Identity());
-  EXPECT_EQ(off.update(step, off.predict(step), false, far, -5.0, false), TrackKeeper::Decision::kAccept);
-  o.proof_nats = 0.0;
-  EXPECT_THROW(o.validate(), Error);
-}
-
-TEST(TrackState, NamesRoundTrip) {
-  for (std::size_t s = 0; s < kTrackStates; ++s) {
-    const auto state = static_cast<TrackState>(s);
-    EXPECT_EQ(parse_track_state(to_string(state)), state);
-  }
-  EXPECT_EQ(std::string(to_string(TrackState::kUnmapped)), "unmapped");
-  EXPECT_FALSE(parse_track_state("Lost").has_value());
 }
 
 }  // namespace
