@@ -42,9 +42,7 @@ TEST(StatusContent, EachStateSaysWhy) {
   FilterStep step;
   step.state = TrackState::kSearching;
   step.reason = StateReason::kSpread;
-  EXPECT_EQ(state_reason(step),
-            "no compact place holds the belief; 0 places, the best holds 0 % of the belief; 0 % of the scan fits, the "
-            "map covers 0 %");
+  EXPECT_EQ(state_reason(step), "no compact place holds the belief; 0 places, the best holds 0 % of the belief");
   Place a, b;
   a.weight = 0.55;
   b.weight = 0.45;

@@ -31,7 +31,7 @@ struct PyResult {
   double time = 0.0;
   std::uint64_t index = 0;
   std::string state;
-  std::string reason;  // why the state is what it is
+  std::string reason;     // why the state is what it is
   double coverage = 0.0;  // share of the scan's points with map evidence at the estimate
   bool updated = false, resampled = false, converged = false;
   PyPlace estimate;
@@ -71,14 +71,12 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
                 {"used", r.points.output},
                 {"track_evidence", s.weighed_points}};  // report.json's, 0 for its null (every point)
   const StepTimings& t = s.timings;
-  out.timings = {{"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},
-                 {"upload_ms", t.upload_ms},         {"weight_ms", t.weight_ms},
-                 {"weight_gpu_ms", t.weight_gpu_ms}, {"reduce_gpu_ms", t.reduce_gpu_ms},
-                 {"walls_ms", t.walls_ms},           {"own_points_ms", t.own_points_ms},
-                 {"tempering_ms", t.tempering_ms},   {"places_ms", t.places_ms},
-                 {"ledger_ms", t.ledger_ms},         {"decision_ms", t.decision_ms},
-                 {"resample_ms", t.resample_ms},     {"update_ms", t.total_ms},
-                 {"process_ms", process_ms}};
+  out.timings = {
+      {"preprocess_ms", r.preprocess_ms}, {"motion_ms", t.motion_ms},         {"upload_ms", t.upload_ms},
+      {"weight_ms", t.weight_ms},         {"weight_gpu_ms", t.weight_gpu_ms}, {"reduce_gpu_ms", t.reduce_gpu_ms},
+      {"walls_ms", t.walls_ms},           {"own_points_ms", t.own_points_ms}, {"tempering_ms", t.tempering_ms},
+      {"places_ms", t.places_ms},         {"ledger_ms", t.ledger_ms},         {"decision_ms", t.decision_ms},
+      {"resample_ms", t.resample_ms},     {"update_ms", t.total_ms},          {"process_ms", process_ms}};
   return out;
 }
 

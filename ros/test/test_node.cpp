@@ -157,7 +157,7 @@ double angle_deg(const Pose& a, const Pose& b) {
 
 struct Outcome {
   std::size_t scans = 0, converged = 0, false_claims = 0;
-  std::size_t listed_rivals = 0;     // statuses that carried the rivals key
+  std::size_t listed_rivals = 0;       // statuses that carried the rivals key
   std::size_t entered_with_rival = 0;  // statuses that entered converged while listing a rival (a contradiction)
   std::optional<double> converged_after_s;
   std::size_t converged_after_scans = 0;  // processed scans before the first converged one: load does not change it

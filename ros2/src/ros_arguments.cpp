@@ -68,7 +68,12 @@ Rule parse_rule(const std::string& flag, const std::string& text) {
 // The entries of a parameter file (read_parameter_file: nested keys joined by '.') that belong to `node`: those under
 // a node pattern that matches it, wildcard patterns first so that an entry naming the node wins.
 void add_parameter_file(const std::string& file, const NodeName& node, node::NodeParameters& out) {
-  const std::map<std::string, std::string> values = read_parameter_file(file);
+  // point_topics is a list however long, one topic included.
+  const auto list_field = [](const std::string& field) {
+    const std::string name = "." + kParametersKey + ".point_topics";
+    return field.size() >= name.size() && field.compare(field.size() - name.size(), name.size(), name) == 0;
+  };
+  const std::map<std::string, std::string> values = read_parameter_file(file, list_field);
   const std::string fqn = node.fully_qualified();
   for (const bool wildcard_pass : {true, false}) {
     for (const auto& [key, text] : values) {

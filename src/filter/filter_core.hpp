@@ -80,8 +80,7 @@ class ParticleFilter::Core {
   EndpointModel screening_model() const;
 
   // filter_own_points.cpp: unknown is unknown within each place (docs/filter.md).
-  void weigh_own_points(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta,
-                        FilterStep& step);
+  void weigh_own_points(std::size_t n, const std::vector<Eigen::Vector3f>& points, const Pose& delta, FilterStep& step);
   std::vector<Pose> own_point_centres(const Pose& delta, double reach) const;
   bool weigh_place_on_own_points(std::size_t n, std::size_t c, const Pose& centre,
                                  const std::vector<Eigen::Vector3f>& points, FilterStep& step);
@@ -137,8 +136,8 @@ class ParticleFilter::Core {
     double rest_share = 0.0;          // the rest's share of the belief, with the places too light to keep
     std::size_t kept = 0;             // all counts together, at most `room`
   };
-  void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points,
-                       const ScanExtras& extras, FilterStep& step);
+  void resample_policy(double time, std::size_t n, const std::vector<Eigen::Vector3f>& points, const ScanExtras& extras,
+                       FilterStep& step);
   Injection plan_injection(double time, const FilterStep& step) const;
   void resample(std::size_t n, std::size_t budget, const Injection& injection,
                 const std::vector<Eigen::Vector3f>& points, FilterStep& step);
@@ -181,31 +180,31 @@ class ParticleFilter::Core {
 
   // What the belief has come to.
   Phase phase_ = Phase::kSearching;
-  bool local_start_ = false;  // initialized at a given pose, no wrong lock found out since
-  std::size_t covered_streak_ = 0;  // updates in a row whose dominant place the map covered (most of the scan)
-  bool mapped_track_ = false;       // covered_streak_ reached mapped_track_updates since the (re)start
+  bool local_start_ = false;            // initialized at a given pose, no wrong lock found out since
+  std::size_t covered_streak_ = 0;      // updates in a row whose dominant place the map covered (most of the scan)
+  bool mapped_track_ = false;           // covered_streak_ reached mapped_track_updates since the (re)start
   bool dominant_concentrated_ = false;  // the last update's dominant place held the belief, concentrated
 
   // This update's scan and motion.
   const std::vector<Eigen::Vector3f>* scan_ = nullptr;  // the points of the update running (for the ledger)
   Pose update_delta_ = Pose::Identity();
-  std::optional<Pose> track_prediction_;     // where the odometry carries the held track (after convergence)
-  std::optional<Pose> estimate_prediction_;  // where it carries the last reported estimate, once there is one
+  std::optional<Pose> track_prediction_;       // where the odometry carries the held track (after convergence)
+  std::optional<Pose> estimate_prediction_;    // where it carries the last reported estimate, once there is one
   std::vector<Eigen::Vector3f> scan_normals_;  // planar patches (sensor frame), for WallTilt
   std::size_t scan_points_ = 0;
 
   // The places (modes) of the belief.
   PoseEstimator estimator_;
   PoseEstimate estimate_;
-  std::vector<std::int32_t> group_;  // place of each particle; places.size() = the rest
-  std::vector<double> group_share_;  // share of each group after the evidence between places
+  std::vector<std::int32_t> group_;                     // place of each particle; places.size() = the rest
+  std::vector<double> group_share_;                     // share of each group after the evidence between places
   std::vector<std::pair<Pose, Pose>> decisive_before_;  // the last update's decisive verdicts (best, beaten)
 
   // Places weighed on their own points (filter_own_points.cpp) and the ledger's search elsewhere: scratch that only
   // grows.
   std::vector<Eigen::Vector3f> own_points_;
   std::vector<std::uint8_t> own_observed_;
-  std::vector<double> own_log_weight_;  // each place's particles on its own points (then posteriors)
+  std::vector<double> own_log_weight_;      // each place's particles on its own points (then posteriors)
   std::vector<std::int32_t> own_place_of_;  // each particle's place (own_point_centres' index), -1: none
   std::vector<std::uint32_t> members_;
   std::vector<std::uint32_t> elsewhere_;

@@ -1,5 +1,6 @@
-// ParticleFilter's decision (filter_core.hpp; docs/filter.md, "The ledger", "States"): how well the belief fits (recovery,
-// a wrong lock), the ledger's turn on the track and its rivals, what the next resampling restores, and the state.
+// ParticleFilter's decision (filter_core.hpp; docs/filter.md, "The ledger", "States"): how well the belief fits
+// (recovery, a wrong lock), the ledger's turn on the track and its rivals, what the next resampling restores, and the
+// state.
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -15,7 +16,8 @@ void ParticleFilter::Core::judge_belief(std::size_t n, const std::vector<Eigen::
   // Recovery follows the dominant place's inlier ratio: it falls when the track is lost and hardly moves on a correct
   // one. The averages start at the first convergence (a belief spread over the map fits badly by nature), and wait
   // while the map covers too little of a converged track's scan to judge it.
-  if (converged_once() && (!trusted_track() || map_judges_track())) step.random_share = recovery_.update(judged_ratio());
+  if (converged_once() && (!trusted_track() || map_judges_track()))
+    step.random_share = recovery_.update(judged_ratio());
   step.w_slow = recovery_.w_slow();
   step.w_fast = recovery_.w_fast();
   implausible_share_ = judge_fit(step);
@@ -33,8 +35,7 @@ double ParticleFilter::Core::judge_fit(FilterStep& step) {
   const double ratio = judged_ratio();
   const bool judged = !trusted_track() || map_judges_track();
   const bool off_map = !trusted_track() && !covered;
-  const bool implausible =
-      min_inliers > 0.0 && concentrated_once() && judged && (ratio < min_inliers || off_map);
+  const bool implausible = min_inliers > 0.0 && concentrated_once() && judged && (ratio < min_inliers || off_map);
   implausible_streak_ = implausible ? implausible_streak_ + 1 : 0;
   step.implausible = implausible;
   if (implausible_streak_ < 2) return 0.0;
@@ -102,7 +103,8 @@ std::vector<Pose> ParticleFilter::Core::rivals_to_judge(const std::vector<Eigen:
   const std::vector<Place>& h = estimate_.places;
   std::vector<Pose> others;
   for (std::size_t k = 1; k < h.size(); ++k) {
-    if (explained_share(h[k]) >= explained_share(h.front()) - params_.ledger.explain_margin) others.push_back(h[k].pose);
+    if (explained_share(h[k]) >= explained_share(h.front()) - params_.ledger.explain_margin)
+      others.push_back(h[k].pose);
   }
   // The search elsewhere finds new places; once found, the ledger follows them itself. So after the belief first
   // concentrated it runs when fresh particles have joined (challengers, recovery) and been weighed: on the update
@@ -122,7 +124,8 @@ std::vector<Pose> ParticleFilter::Core::fittest_elsewhere(const std::vector<Eige
   std::vector<Pose> taken;
   for (const Place& x : estimate_.places) taken.push_back(x.pose);
   const auto taken_near = [&](const Eigen::Vector3d& at) {
-    return std::any_of(taken.begin(), taken.end(), [&](const Pose& t) { return (t.translation() - at).norm() <= radius; });
+    return std::any_of(taken.begin(), taken.end(),
+                       [&](const Pose& t) { return (t.translation() - at).norm() <= radius; });
   };
   elsewhere_.clear();
   for (std::size_t i = 0; i < count_; ++i) {
@@ -223,8 +226,7 @@ PlaceLedger::Verdict ParticleFilter::Core::judge_places(const Pose& track, const
   const PointEvidence other = point_evidence(map_, plain, place, points, params_.places.inlier_distance, reach);
   const PairedEvidence e = paired_evidence(judged_.evidence, other, evidence_dead_band());
   PlaceLedger::Verdict v;
-  v.evidence =
-      params_.places.evidence_points * e.sum / static_cast<double>(std::max<std::size_t>(points.size(), 1));
+  v.evidence = params_.places.evidence_points * e.sum / static_cast<double>(std::max<std::size_t>(points.size(), 1));
   v.track_explained = judged_.evidence.fit.absolute_inlier_ratio();
   v.place_explained = other.fit.absolute_inlier_ratio();
   return v;

@@ -68,8 +68,8 @@ void ParticleFilter::Core::weigh_own_points(std::size_t n, const std::vector<Eig
 bool ParticleFilter::Core::weigh_place_on_own_points(std::size_t n, std::size_t c, const Pose& centre,
                                                      const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
   const float reach = map_.truncation();
-  const RayFit centre_fit = ray_fit(map_, centre, points, params_.places.inlier_distance, kSeeThroughMargin,
-                                    &own_observed_);
+  const RayFit centre_fit =
+      ray_fit(map_, centre, points, params_.places.inlier_distance, kSeeThroughMargin, &own_observed_);
   const double below_coverage =
       params_.places.see_through_weight > 0.0 ? coverage_below_horizon(centre, points, own_observed_) : 0.0;
   const std::size_t dropped = drop_frontier_points(map_, centre, points, reach, own_observed_);
@@ -78,7 +78,8 @@ bool ParticleFilter::Core::weigh_place_on_own_points(std::size_t n, std::size_t 
   // Nothing to drop (the place's whole scan is evidence), or too little left to weigh on (deep in a room the mapping
   // run never entered): the whole scan.
   if (dropped == 0 && unobserved == 0) return false;
-  if (points.size() - unobserved < std::max<std::size_t>(params_.places.min_own_points, points.size() / 8)) return false;
+  if (points.size() - unobserved < std::max<std::size_t>(params_.places.min_own_points, points.size() / 8))
+    return false;
   own_points_.clear();
   for (std::size_t j = 0; j < points.size(); ++j) {
     if (own_observed_[j]) own_points_.push_back(points[j]);
@@ -157,8 +158,8 @@ void ParticleFilter::Core::weigh_height_on_rays(const Pose& centre, const std::v
   // A ray through a surface costs what a point far from every surface costs against one on it, tempered like the
   // points (the sensor model's exponent; the update's tempering applies to both in weigh_within_places).
   const EndpointModel& m = params_.sensor;
-  const double per_ray =
-      o.see_through_weight * static_cast<double>(m.weight_exponent) * std::log((m.hit_scale() + m.p_rand()) / m.p_rand());
+  const double per_ray = o.see_through_weight * static_cast<double>(m.weight_exponent) *
+                         std::log((m.hit_scale() + m.p_rand()) / m.p_rand());
   const ParticleArrays p = evaluator_.particles();
   for (const std::uint32_t i : members_) {
     const double offset = (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - centre.translation()).dot(up) / step;

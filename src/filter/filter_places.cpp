@@ -93,8 +93,7 @@ ParticleFilter::Core::PlaceFits ParticleFilter::Core::fit_places(std::size_t n,
   const RefinedPlaces& p = fits.refined;
   std::vector<FrontierView> views(h.size());
   for (std::size_t r = 0; r < h.size(); ++r) {
-    const bool near =
-        (p.pose[r].translation() - p.pose[p.reference].translation()).norm() <= o.track_radius;
+    const bool near = (p.pose[r].translation() - p.pose[p.reference].translation()).norm() <= o.track_radius;
     views[r] = FrontierView{p.fit[r].coverage(), at_frontier_of(p.fit[r], p.pose[r]), near};
   }
   fits.waits = waiting_pairs(views, p.reference, o.most_of_the_scan, o.frontier_coverage_gap);
@@ -114,9 +113,9 @@ std::vector<double> ParticleFilter::Core::place_nats(std::size_t n, PlaceFits& f
   const double dead_band = evidence_dead_band();
   std::vector<double> paired(places, 0.0);
   for (std::size_t r = 0; r < places; ++r) {
-    paired[r] = paired_evidence(p.point_log[r], p.observed[r], p.point_log[p.reference], p.observed[p.reference],
-                                dead_band)
-                    .sum;
+    paired[r] =
+        paired_evidence(p.point_log[r], p.observed[r], p.point_log[p.reference], p.observed[p.reference], dead_band)
+            .sum;
   }
   std::vector<double>& evidence = fits.evidence;
   evidence = place_evidence(p.total[p.reference], paired, fits.waits, count);
@@ -162,9 +161,11 @@ void ParticleFilter::Core::turn_on_decisive_views(std::size_t n, const PlaceFits
     const std::vector<Pose>& poses = fits.refined.pose;
     std::size_t b = poses.size();
     const std::vector<std::size_t> beaten =
-        decisively_beaten(place_judgements(estimate_.places, fits.refined.fit, fits.waits, params_.estimate),
-                          evidence, o.decisive_inlier_gap, o.nearly_all_of_the_scan, b);
-    const auto same = [&](const Pose& before, const Pose& now) { return params_.same_place(before * update_delta_, now); };
+        decisively_beaten(place_judgements(estimate_.places, fits.refined.fit, fits.waits, params_.estimate), evidence,
+                          o.decisive_inlier_gap, o.nearly_all_of_the_scan, b);
+    const auto same = [&](const Pose& before, const Pose& now) {
+      return params_.same_place(before * update_delta_, now);
+    };
     std::vector<std::size_t> repeated;
     for (const std::size_t r : beaten) {
       decisive.emplace_back(poses[b], poses[r]);

@@ -79,7 +79,8 @@ ParticleFilter::Core::Injection ParticleFilter::Core::plan_injection(double time
   return in;
 }
 
-ParticleFilter::Core::GroupCounts ParticleFilter::Core::count_groups(std::size_t n, std::size_t budget, std::size_t room) {
+ParticleFilter::Core::GroupCounts ParticleFilter::Core::count_groups(std::size_t n, std::size_t budget,
+                                                                     std::size_t room) {
   // Particle counts per group: each place heavy enough to keep at least PlaceOptions::min_particles, the rest of the
   // budget by share. Lighter places join the rest and take their chances.
   const std::size_t groups = group_share_.size();
@@ -139,7 +140,7 @@ ParticleFilter::Core::GroupCounts ParticleFilter::Core::count_groups(std::size_t
 }
 
 void ParticleFilter::Core::resample(std::size_t n, std::size_t budget, const Injection& injection,
-                              const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
+                                    const std::vector<Eigen::Vector3f>& points, FilterStep& step) {
   const std::size_t injected = std::min(injection.count, params_.kld.max_particles);
   if (injection.candidates > injected) reserve_search(injection.candidates);  // before any view is taken
   const GroupCounts plan = count_groups(n, budget, params_.kld.max_particles - injected);
@@ -171,7 +172,8 @@ void ParticleFilter::Core::resample(std::size_t n, std::size_t budget, const Inj
 }
 
 void ParticleFilter::Core::inject(const Injection& injection, std::size_t injected,
-                            const std::vector<Eigen::Vector3f>& points, const ParticleArrays& dst, std::size_t offset) {
+                                  const std::vector<Eigen::Vector3f>& points, const ParticleArrays& dst,
+                                  std::size_t offset) {
   if (injection.around) {
     const ParticleArrays at{dst.x + offset,  dst.y + offset,          dst.z + offset,
                             dst.qw + offset, dst.qx + offset,         dst.qy + offset,

@@ -139,7 +139,7 @@ void ParticleFilter::Core::reserve_search(std::size_t candidates) {
 }
 
 void ParticleFilter::Core::search(std::size_t candidates, std::size_t keep, const std::vector<Eigen::Vector3f>& points,
-                            const ParticleArrays& dst, std::size_t offset) {
+                                  const ParticleArrays& dst, std::size_t offset) {
   const GlobalSearchOptions& o = params_.global_search;
   const GlobalProposal& g = proposal();
   // The kept hypotheses are shared between the blocks by their mixture weights (largest remainders).

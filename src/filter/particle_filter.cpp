@@ -125,7 +125,8 @@ FilterStep ParticleFilter::Core::update(double time, const std::vector<Eigen::Ve
   const double dt = motion_.elapsed(time);
   scan_ = &points;
   update_delta_ = delta;
-  track_prediction_ = converged_once() && ledger_.started() ? std::optional<Pose>(ledger_.predict(delta)) : std::nullopt;
+  track_prediction_ =
+      converged_once() && ledger_.started() ? std::optional<Pose>(ledger_.predict(delta)) : std::nullopt;
   estimate_prediction_ = estimate_placed_ ? std::optional<Pose>(last_estimate_pose_ * delta) : std::nullopt;
   predict(n, delta, dt);
   step.timings.motion_ms = t.ms();

@@ -106,8 +106,7 @@ PlaceLedger::Outcome PlaceLedger::update(const Input& in) {
   started_ = true;
   track_ = in.track;
 
-  // The followed rivals refined from where the track carries them, then every place judged against the track (the
-  // first alone, so that the judge's work on the track side is done once before the others run in parallel).
+  // The followed rivals refined from where the track carries them, then every place judged against the track.
   const std::size_t followed = rivals_.size();
   std::vector<Pose> places(followed);
 #pragma omp parallel for schedule(dynamic)
@@ -122,13 +121,7 @@ PlaceLedger::Outcome PlaceLedger::update(const Input& in) {
     left_index = places.size();
     places.push_back(*left);
   }
-  std::vector<Verdict> verdicts(places.size());
-  if (!places.empty()) verdicts[0] = judge_(track_, places[0]);
-#pragma omp parallel for schedule(dynamic)
-  for (std::ptrdiff_t i = 1; i < static_cast<std::ptrdiff_t>(places.size()); ++i) {
-    const auto k = static_cast<std::size_t>(i);
-    verdicts[k] = judge_(track_, places[k]);
-  }
+  const std::vector<Verdict> verdicts = judge_all(places);
   double inherited = 0.0;
   follow_rivals(places, verdicts, followed, moved, in.track_mapped, inherited);
   admit(places, verdicts, followed, left_index, inherited, in.track_mapped);
@@ -145,6 +138,18 @@ PlaceLedger::Outcome PlaceLedger::update(const Input& in) {
     out.rivals.push_back(s);
   }
   return out;
+}
+
+std::vector<PlaceLedger::Verdict> PlaceLedger::judge_all(const std::vector<Pose>& places) const {
+  // The first alone, so that the judge's work on the track side is done once before the others run in parallel.
+  std::vector<Verdict> verdicts(places.size());
+  if (!places.empty()) verdicts[0] = judge_(track_, places[0]);
+#pragma omp parallel for schedule(dynamic)
+  for (std::ptrdiff_t i = 1; i < static_cast<std::ptrdiff_t>(places.size()); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    verdicts[k] = judge_(track_, places[k]);
+  }
+  return verdicts;
 }
 
 void PlaceLedger::follow_rivals(const std::vector<Pose>& places, const std::vector<Verdict>& verdicts,

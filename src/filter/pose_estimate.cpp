@@ -253,8 +253,8 @@ std::size_t PoseEstimator::rank_components(std::size_t* modes) {
 
 bool take_dominant_place(PoseEstimate& e, const PoseEstimateOptions& o) { return take_place(e, 0, o); }
 
-std::size_t estimate_place(const std::vector<Place>& h, const Pose& prediction, double switch_ratio,
-                           double max_jump_m, double max_jump_rad) {
+std::size_t estimate_place(const std::vector<Place>& h, const Pose& prediction, double switch_ratio, double max_jump_m,
+                           double max_jump_rad) {
   const auto continues = [&](const Place& place) {
     return (place.pose.translation() - prediction.translation()).norm() <= max_jump_m &&
            rotation_angle_between(place.pose.linear(), prediction.linear()) <= max_jump_rad;

@@ -102,9 +102,8 @@ struct Ray {
       const std::int32_t v = value_at(at);
       if (v == TsdfMap::kUnknownValue || v >= 0) {
         inside = false;
-        s = v == TsdfMap::kUnknownValue
-                ? std::max(s + voxel, past_unknown_block(at, s))
-                : s + std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
+        s = v == TsdfMap::kUnknownValue ? std::max(s + voxel, past_unknown_block(at, s))
+                                        : s + std::max(voxel, 0.8f * static_cast<float>(v) * view.quant_step);
         continue;
       }
       if (!inside) from_front = entered_from_front(at, v);

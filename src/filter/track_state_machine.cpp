@@ -21,8 +21,7 @@ void StateOptions::validate() const {
   if (!(ambiguous_weight >= 0.0 && ambiguous_weight <= 1.0)) throw Error("ambiguous_weight must lie in [0, 1]");
 }
 
-TrackStateMachine::TrackStateMachine(const StateOptions& options, const SamePlace& same_place,
-                                     double judged_coverage)
+TrackStateMachine::TrackStateMachine(const StateOptions& options, const SamePlace& same_place, double judged_coverage)
     : options_(options), same_place_(same_place), judged_coverage_(std::max(judged_coverage, options.min_coverage)) {
   options_.validate();
   same_place_.validate();

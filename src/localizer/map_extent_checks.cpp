@@ -73,8 +73,6 @@ void check_options_for_map(const TsdfMap& map, const LocalizerOptions& options) 
   check_spread_for_map(map, f.local_init, "init_");
   const double diagonal = map_diagonal(map);
   check_length(f.motion.diffusion_xy, diagonal, "diffusion_xy", "the map's diagonal");
-  check_length(f.motion.diffusion_z, diagonal, "diffusion_z", "the map's diagonal");
-  check_length(f.roughening_xyz, diagonal, "roughening_xyz", "the map's diagonal");
   const double alphas[] = {f.motion.alpha1, f.motion.alpha2, f.motion.alpha3, f.motion.alpha4,
                            f.motion.alpha5, f.motion.alpha6, f.motion.alpha7, f.motion.alpha8};
   for (int i = 0; i < 8; ++i) {

@@ -83,7 +83,8 @@ void check_strict_json(const std::string& text, const std::string& path) {
 
 class Flattener {
  public:
-  explicit Flattener(std::string file) : file_(std::move(file)) {}
+  Flattener(std::string file, std::function<bool(const std::string&)> list_field)
+      : file_(std::move(file)), list_field_(std::move(list_field)) {}
 
   void add(const YAML::Node& node, const std::string& prefix, int depth) {
     visit();
@@ -97,7 +98,7 @@ class Flattener {
     } else if (node.IsSequence()) {
       // A list is the value of a parameter that takes several (init's six numbers, init_height_band's two); one of
       // a single item would otherwise read as that item ({"sigma_hit": [1]}), an empty one as an empty value.
-      if (node.size() < 2) {
+      if (node.size() < (list_field_ && list_field_(prefix) ? 1u : 2u)) {
         throw Error(file_ + ": " + prefix + ": a list of " + std::to_string(node.size()) +
                     " items; give a single value without brackets");
       }
@@ -130,13 +131,15 @@ class Flattener {
   }
 
   std::string file_;
+  std::function<bool(const std::string&)> list_field_;
   std::size_t visited_ = 0;
   std::map<std::string, std::string> values_;
 };
 
 }  // namespace
 
-std::map<std::string, std::string> read_parameter_file(const std::string& path) {
+std::map<std::string, std::string> read_parameter_file(const std::string& path,
+                                                       const std::function<bool(const std::string&)>& list_field) {
   const std::string text = read_input_file(path, "config file", limits::kMaxConfigFileBytes);
   check_text(text, path);
   if (is_json(path)) check_strict_json(text, path);
@@ -149,7 +152,7 @@ std::map<std::string, std::string> read_parameter_file(const std::string& path) 
     }
     const YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
     if (!root.IsMap()) throw Error(path + ": expected a map of parameter names to values");
-    Flattener flattener(path);
+    Flattener flattener(path, list_field);
     flattener.add(root, "", 0);
     return std::move(flattener).values();
   } catch (const YAML::Exception& e) {

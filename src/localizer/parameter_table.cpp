@@ -67,8 +67,8 @@ std::vector<ParameterSpec> filter_specs(const FilterParameters& f) {
        kFilter},
       {"resample_interval", "N", std::to_string(f.resample_interval), "consider resampling every N-th filter update",
        kFilter},
-      {"recovery_alpha_slow", "A", num(f.recovery.alpha_slow),
-       "recovery: long-term fit average rate (0 = no recovery)", kFilter},
+      {"recovery_alpha_slow", "A", num(f.recovery.alpha_slow), "recovery: long-term fit average rate (0 = no recovery)",
+       kFilter},
       {"recovery_alpha_fast", "A", num(f.recovery.alpha_fast),
        "recovery: short-term fit average rate (0 = no recovery)", kFilter},
       {"motion_model", "NAME", to_string(f.motion.type), "odometry (odom.txt), constant_velocity or diffusion",
@@ -96,8 +96,7 @@ std::vector<ParameterSpec> motion_noise_specs(const FilterParameters& f) {
        kExpert},
       {"diffusion_xy", "M", num(f.motion.diffusion_xy),
        "random walk of constant_velocity and diffusion per sqrt(s) in x and y (in z a quarter of it)", kExpert},
-      {"diffusion_yaw", "RAD", num(f.motion.diffusion_yaw),
-       "... in yaw (in roll and pitch 0.3 times it)", kExpert},
+      {"diffusion_yaw", "RAD", num(f.motion.diffusion_yaw), "... in yaw (in roll and pitch 0.3 times it)", kExpert},
   };
 }
 

@@ -54,7 +54,7 @@ TEST(CliUx, ProgressInAPipeQuietAndVerbose) {
   EXPECT_LE(lines.size(), 8u) << r.err;
   EXPECT_EQ(r.err.find('\r'), std::string::npos);
   EXPECT_EQ(count_containing(lines, "[1/24]"), 0u) << r.err;
-  EXPECT_EQ(count_containing(lines, ": converged, "), 1u) << "the state change to converged: " << r.err;
+  EXPECT_EQ(count_containing(lines, ": converged ("), 1u) << "the state change to converged: " << r.err;
   EXPECT_EQ(lines.back().rfind("localize: 24 scans, ", 0), 0u) << r.err;
   EXPECT_NE(lines.back().find("converged (the filter's own flag) since scan"), std::string::npos) << r.err;
 
@@ -207,14 +207,14 @@ TEST(CliUx, HelpFitsOneHundredColumnsAndLocalizeIsGrouped) {
   const std::string help = run_cli(out, "localize --help").out;
   std::size_t last = 0;
   for (const char* group : {"input options:", "initialization options:", "output options:", "filter options:",
-                            "sensor model options:", "advanced options:"}) {
+                            "sensor model options:", "decision options:", "runtime options:"}) {
     const std::size_t at = help.find(std::string("\n") + group + "\n");
     ASSERT_NE(at, std::string::npos) << group;
     EXPECT_GT(at, last) << group;
     last = at;
   }
-  EXPECT_LT(help.find("--particles N"), help.find("--sigma_hit M"));
-  EXPECT_LT(help.find("--sigma_hit M"), help.find("--pf_z Z"));
+  EXPECT_LT(help.find("--particles N"), help.find("--pf_z Z"));
+  EXPECT_LT(help.find("--pf_z Z"), help.find("--sigma_hit M"));
   const std::string main_help = run_cli(out, "--help").out;
   EXPECT_NE(main_help.find("  export-cloud  write"), std::string::npos) << main_help;
   EXPECT_NE(main_help.find("  info          print"), std::string::npos) << main_help;

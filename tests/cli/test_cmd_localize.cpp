@@ -129,8 +129,8 @@ TEST(CliLocalize, GlobalLocalizationWritesTrajectoryReportAndEvaluates) {
   const double total = first["timings_ms"]["update_total"].get<double>();
   EXPECT_GT(total, 0.0);
   double stages = 0.0;
-  for (const char* key : {"motion", "upload", "weight", "walls", "own_points", "tempering", "places", "ledger",
-                          "decision", "resample"}) {
+  for (const char* key :
+       {"motion", "upload", "weight", "walls", "own_points", "tempering", "places", "ledger", "decision", "resample"}) {
     ASSERT_TRUE(first["timings_ms"].contains(key)) << key;
     EXPECT_LE(first["timings_ms"][key].get<double>(), total) << key;
     stages += first["timings_ms"][key].get<double>();
@@ -210,9 +210,15 @@ TEST(CliLocalize, HelpListsEveryOptionWithItsDefault) {
   const CliResult r = run_cli(out, "localize --help");
   ASSERT_EQ(r.exit_code, 0);
   for (const char* s : {"--max_beams N", "[default: 512]", "--pf_z Z", "standard-normal quantile",
-                        "--recovery_alpha_slow", "--alpha8", "--init_height_band", "--config FILE"}) {
+                        "--recovery_alpha_slow", "--alpha5", "--init_height_band", "--config FILE"}) {
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
   }
+  // The expert options only with --help-all.
+  EXPECT_EQ(r.out.find("--alpha8"), std::string::npos);
+  const CliResult all = run_cli(out, "localize --help-all");
+  ASSERT_EQ(all.exit_code, 0);
+  EXPECT_NE(all.out.find("expert options:"), std::string::npos);
+  EXPECT_NE(all.out.find("--alpha8"), std::string::npos);
 }
 
 TEST(CliLocalize, BadInputGivesOneClearError) {

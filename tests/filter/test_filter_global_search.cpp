@@ -56,11 +56,11 @@ TwinWingWalk twin_wing_walk() {
 // TSDF_MCL_TEST_DEBUG=1 prints every step (for tuning, never in CI).
 void debug_step(std::size_t i, const FilterStep& s, const Pose& truth) {
   if (!std::getenv("TSDF_MCL_TEST_DEBUG")) return;
-  std::fprintf(stderr,
-               "step %zu: err %.2f m %s (%s) conc %d impl %d rivals %zu inl %.2f n %zu->%zu inj %zu+%zu+%zu beta %.3g |",
-               i, test::translation_error(s.estimate.pose, truth), to_string(s.state), to_string(s.reason),
-               s.concentrated, s.implausible, s.rivals.size(), s.estimate.inlier_ratio, s.particles, s.next_particles,
-               s.injected, s.challengers, s.restored, s.tempering);
+  std::fprintf(
+      stderr, "step %zu: err %.2f m %s (%s) conc %d impl %d rivals %zu inl %.2f n %zu->%zu inj %zu+%zu+%zu beta %.3g |",
+      i, test::translation_error(s.estimate.pose, truth), to_string(s.state), to_string(s.reason), s.concentrated,
+      s.implausible, s.rivals.size(), s.estimate.inlier_ratio, s.particles, s.next_particles, s.injected, s.challengers,
+      s.restored, s.tempering);
   for (const Place& h : s.estimate.places) {
     std::fprintf(stderr, " %.3f@(%.1f,%.1f)i%.2f", h.weight, h.pose.translation().x(), h.pose.translation().y(),
                  h.inlier_ratio);

@@ -45,7 +45,8 @@ TsdfMap twin_map(bool with_feature) {
 
 // The filter's judge (filter_decision.cpp: judge_places): paired evidence on the points both poses observe, clear of
 // the frontier, a scan worth 16 points; the share of the scan each pose explains.
-PlaceLedger::Verdict judge(const TsdfMap& map, const Pose& a, const Pose& b, const std::vector<Eigen::Vector3f>& points) {
+PlaceLedger::Verdict judge(const TsdfMap& map, const Pose& a, const Pose& b,
+                           const std::vector<Eigen::Vector3f>& points) {
   EndpointModel model;
   const double dead_band = 0.5 * kInlier * kInlier / (model.sigma_hit * model.sigma_hit);
   const PointEvidence at_a = point_evidence(map, model, a, points, kInlier, map.truncation());

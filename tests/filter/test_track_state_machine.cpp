@@ -197,7 +197,8 @@ TEST(TrackStateMachine, EveryStateAndReasonHasAName) {
     EXPECT_EQ(*parse_track_state(to_string(state)), state);
   }
   EXPECT_FALSE(parse_track_state("tracking"));
-  for (std::size_t r = 0; r < kStateReasons; ++r) EXPECT_GT(std::string(to_string(static_cast<StateReason>(r))).size(), 5u);
+  for (std::size_t r = 0; r < kStateReasons; ++r)
+    EXPECT_GT(std::string(to_string(static_cast<StateReason>(r))).size(), 5u);
 }
 
 TEST(TrackStateMachine, OptionsSayWhatIsWrong) {

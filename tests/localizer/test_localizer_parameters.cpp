@@ -203,6 +203,13 @@ TEST(ParameterFile, StrictFormsAreOneErrorNamingTheFile) {
   e = file_error(dir, "none.yaml", "ignore_imu: []\n");
   EXPECT_NE(e.find("none.yaml: ignore_imu: a list of 0 items"), std::string::npos) << e;
   EXPECT_EQ(file_error(dir, "band.json", R"({"init_height_band": [0.2, 1.5], "init": [1, 2, 0, 0, 0, 0]})"), "");
+  // A field whose value is a list however long (a node's topics) takes one item, and no other field does.
+  test::write_bytes(dir / "topics.yaml", "node: {topics: [points], sigma_hit: [1]}\n");
+  const auto topics = [](const std::string& field) { return field == "node.topics"; };
+  EXPECT_THROW(read_parameter_file((dir / "topics.yaml").string(), topics), Error);
+  test::write_bytes(dir / "topics.yaml", "node: {topics: [points], sigma_hit: 1}\n");
+  EXPECT_EQ(read_parameter_file((dir / "topics.yaml").string(), topics).at("node.topics"), "points");
+  EXPECT_THROW(read_parameter_file((dir / "topics.yaml").string()), Error);
 }
 
 TEST(LocalizerParameters, TypesAreCheckedValueByValue) {

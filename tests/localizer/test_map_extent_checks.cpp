@@ -82,8 +82,6 @@ TEST(MapExtentChecks, OptionsBeyondTheMapStopTheLocalizerBeforeItStarts) {
       {[](LocalizerOptions& o) { o.filter.local_init.sigma_z = 1e30; }, "init_sigma_z"},
       {[&](LocalizerOptions& o) { o.filter.local_init.sigma_xy = 1.01 * diagonal; }, "the map's diagonal"},
       {[](LocalizerOptions& o) { o.filter.motion.diffusion_xy = 1e30; }, "diffusion_xy"},
-      {[](LocalizerOptions& o) { o.filter.motion.diffusion_z = 1e30; }, "diffusion_z"},
-      {[](LocalizerOptions& o) { o.filter.roughening_xyz = 1e30; }, "roughening_xyz"},
       {[](LocalizerOptions& o) { o.filter.motion.alpha1 = 1e30; }, "alpha1 1e+30 is more than 10"},
       {[](LocalizerOptions& o) { o.filter.motion.alpha6 = 10.5; }, "alpha6 10.5 is more than 10"},
       {[](LocalizerOptions& o) {

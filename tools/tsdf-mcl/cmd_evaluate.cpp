@@ -343,7 +343,8 @@ void print_flag_stability(const nlohmann::json& f) {
                "evaluate: from the first converged flag on: %zu of %zu right scans flagged converged, %zu flag "
                "changes in %.1f min, %zu right scans flagged lost\n",
                f["right_flagged"].get<std::size_t>(), f["right_scans"].get<std::size_t>(),
-               f["flag_changes"].get<std::size_t>(), f["minutes"].get<double>(), f["lost_while_right"].get<std::size_t>());
+               f["flag_changes"].get<std::size_t>(), f["minutes"].get<double>(),
+               f["lost_while_right"].get<std::size_t>());
 }
 
 void print_landmark_verdict(const nlohmann::json& j) {

@@ -258,16 +258,15 @@ void report_run(Progress& progress, const sim::SimulationSummary& r, const Optio
 }  // namespace
 
 int run_simulate(int argc, char** argv) {
-  Options o(
-      "simulate",
-      "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|town|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
-      "                         [--scene_size M] [--open_air] [--route mapping|test] [--seed N] [--storey K]\n"
-      "                         [--start X,Y,YAW] [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone]\n"
-      "                         [--sensor_tilt DEG] [--duration S | --length M] [--rate HZ] [--speed MPS]\n"
-      "                         [--sensor_height M] [--range_noise M] [--dropout P] [--odom_noise F]\n"
-      "                         [--obstacles N] [--walkers N] [--motion_distortion]\n"
-      "                         [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
-      simulate_options(), argc, argv, 2);
+  Options o("simulate",
+            "tsdf-mcl simulate --scene office|symmetric|warehouse|two-storey|town|MESH --lidar vlp16|os0-64|BEAMTABLE\n"
+            "                         [--scene_size M] [--open_air] [--route mapping|test] [--seed N] [--storey K]\n"
+            "                         [--start X,Y,YAW] [--waypoints X,Y;X,Y;...] [--platform ground|handheld|drone]\n"
+            "                         [--sensor_tilt DEG] [--duration S | --length M] [--rate HZ] [--speed MPS]\n"
+            "                         [--sensor_height M] [--range_noise M] [--dropout P] [--odom_noise F]\n"
+            "                         [--obstacles N] [--walkers N] [--motion_distortion]\n"
+            "                         [--bag FILE.bag|FILE.mcap|FILE.db3|FOLDER] -o DIR",
+            simulate_options(), argc, argv, 2);
   if (o.help_requested()) {
     std::printf("%s", o.help_text().c_str());
     return 0;

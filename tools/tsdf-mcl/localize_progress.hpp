@@ -1,7 +1,7 @@
 #pragma once
 // What tsdf-mcl localize tells a person while it runs: the progress line (scans/s, particles, state, ETA), the
-// state changes with their reasons (searching -> ambiguous -> converged -> lost), why an initial pose is being searched around, and
-// the per-scan lines of --verbose.
+// state changes with their reasons (searching -> ambiguous -> converged -> lost), why an initial pose is being searched
+// around, and the per-scan lines of --verbose.
 #include <cstddef>
 #include <cstdint>
 #include <optional>

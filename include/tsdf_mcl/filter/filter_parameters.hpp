@@ -48,9 +48,9 @@ struct GlobalSearchOptions {
 // still an update once `interval` has passed. A global belief is sparse: its particles nearest the true pose are
 // decimetres and degrees off; the walk lets them climb the likelihood before selection judges them.
 struct RougheningOptions {
-  double xyz = 0.1;        // m
-  double angle = 0.04;     // rad
-  double interval = 1.0;   // s
+  double xyz = 0.1;       // m
+  double angle = 0.04;    // rad
+  double interval = 1.0;  // s
 };
 
 // Recovery from a lost track (recovery.hpp) and from a wrong lock.
@@ -89,9 +89,9 @@ struct PlaceOptions {
   // Before the first concentration a view where the best-judged place explains this much more of its observed points
   // (inlier ratio), on two updates in a row, turns the odds to switch_ratio squared. 0 = off.
   double decisive_inlier_gap = 0.03;
-  bool even_tied = true;             // places tied with the best fit start equal as a global search names them
-  bool frontier_evidence = false;    // points at the frontier of observed space count as evidence
-  double see_through_weight = 1.0;   // a place's height weighed on the scan's rays (0 = off)
+  bool even_tied = true;               // places tied with the best fit start equal as a global search names them
+  bool frontier_evidence = false;      // points at the frontier of observed space count as evidence
+  double see_through_weight = 1.0;     // a place's height weighed on the scan's rays (0 = off)
   double wall_tilt_information = 3.0;  // the scan's walls hold the refined tilt (per wall, against 512 points)
   // The observation mask's shares of the scan (docs/filter.md, "Which points are evidence").
   double most_of_the_scan = 0.75;       // coverage at which the fit judges a place
@@ -105,8 +105,8 @@ struct PlaceOptions {
   std::size_t min_own_points = 32;
   double track_radius = 2.0;  // m
   std::size_t max_own_places = 4;
-  std::size_t fittest_places = 4;          // places outside the belief's that the ledger weighs each update
-  std::size_t mapped_track_updates = 10;   // updates at a covered place before the frontier rules apply
+  std::size_t fittest_places = 4;         // places outside the belief's that the ledger weighs each update
+  std::size_t mapped_track_updates = 10;  // updates at a covered place before the frontier rules apply
 
   void validate() const;
 };

@@ -62,20 +62,20 @@ struct FilterStep {
   double fit = 0.0;                // mean per-point geometric-mean likelihood over particles (diagnostic)
   double w_slow = 0.0;
   double w_fast = 0.0;
-  double random_share = 0.0;     // share of the next generation from the proposal (recovery)
-  bool concentrated = false;     // the dominant place holds converged_weight and is compact
-  bool implausible = false;      // ... and its inlier ratio is below recovery_min_inliers
-  std::vector<Pose> rivals;      // places the ledger has not told from the track (place_ledger.hpp)
-  std::size_t challengers = 0;   // particles of the background search added in this update
-  std::size_t restored = 0;      // particles put back at a place the ledger favours (the track, a proven rival)
+  double random_share = 0.0;    // share of the next generation from the proposal (recovery)
+  bool concentrated = false;    // the dominant place holds converged_weight and is compact
+  bool implausible = false;     // ... and its inlier ratio is below recovery_min_inliers
+  std::vector<Pose> rivals;     // places the ledger has not told from the track (place_ledger.hpp)
+  std::size_t challengers = 0;  // particles of the background search added in this update
+  std::size_t restored = 0;     // particles put back at a place the ledger favours (the track, a proven rival)
   // The estimate holds the track against a dominant place elsewhere the ledger has not decided; its ratio for the
   // track so far (nats) and the travel it spans (m).
   bool holding = false;
   double challenge_evidence = 0.0;
   double challenge_travel = 0.0;
   TrackState state = TrackState::kSearching;  // what the filter can say about its track (track_state.hpp)
-  StateReason reason = StateReason::kSpread;   // why
-  bool state_changed = false;                  // the state differs from the last update's
+  StateReason reason = StateReason::kSpread;  // why
+  bool state_changed = false;                 // the state differs from the last update's
   StepTimings timings;
   PoseEstimate estimate;
 };

@@ -29,9 +29,9 @@ struct GlobalInitOptions {
 };
 
 struct LocalInitSpread {
-  double sigma_xy = 0.5;           // m
-  double sigma_z = 0.1;            // m
-  double sigma_yaw = 0.2617994;    // rad (15°)
+  double sigma_xy = 0.5;                      // m
+  double sigma_z = 0.1;                       // m
+  double sigma_yaw = 0.2617994;               // rad (15°)
   double sigma_roll_pitch = 0.2 * 0.2617994;  // rad: a fifth of the yaw spread (localize derives it so)
 
   void validate() const;

@@ -68,22 +68,22 @@ class PlaceLedger {
   };
 
   struct Input {
-    Pose motion = Pose::Identity();   // odometry since the last update
-    Pose track;                       // the track's pose on this scan (see above)
-    std::optional<Pose> challenger;   // the dominant place, where it lies elsewhere and the track holds
-    std::vector<Pose> others;         // other places worth judging (refined)
-    bool track_mapped = true;         // the map covers most of the scan at the track
-    bool track_implausible = false;   // the track's fit fails where the map covers its scan
+    Pose motion = Pose::Identity();  // odometry since the last update
+    Pose track;                      // the track's pose on this scan (see above)
+    std::optional<Pose> challenger;  // the dominant place, where it lies elsewhere and the track holds
+    std::vector<Pose> others;        // other places worth judging (refined)
+    bool track_mapped = true;        // the map covers most of the scan at the track
+    bool track_implausible = false;  // the track's fit fails where the map covers its scan
   };
   struct Outcome {
-    Pose track;                   // the place the estimate reports
-    bool holding = false;         // the challenger is not decided: the track holds
-    bool moved = false;           // the track left the place it held (followed the belief, or a challenger taken)
+    Pose track;            // the place the estimate reports
+    bool holding = false;  // the challenger is not decided: the track holds
+    bool moved = false;    // the track left the place it held (followed the belief, or a challenger taken)
     bool challenger_taken = false;
-    double challenge = 0.0;         // while holding: the ratio for the track against the challenger
-    double challenge_travel = 0.0;  // m it spans
-    std::vector<Standing> rivals;   // followed after this update, but the challenger
-    std::optional<Standing> proven;  // the best-proven rival that is not the challenger, if any (also in rivals)
+    double challenge = 0.0;           // while holding: the ratio for the track against the challenger
+    double challenge_travel = 0.0;    // m it spans
+    std::vector<Standing> rivals;     // followed after this update, but the challenger
+    std::optional<Standing> proven;   // the best-proven rival that is not the challenger, if any (also in rivals)
     bool challenger_refuted = false;  // the challenger was refuted on this update
   };
 
@@ -99,8 +99,8 @@ class PlaceLedger {
 
  private:
   struct Rival {
-    Pose relative;          // place = relative * track
-    double evidence = 0.0;  // for the track since it was found
+    Pose relative;                                 // place = relative * track
+    double evidence = 0.0;                         // for the track since it was found
     std::deque<std::pair<double, double>> recent;  // (judged_travel_ when taken, evidence) over the last window_m
     double found_at = 0.0;                         // travel_ when found (or when its ratio started over)
     double window() const;
@@ -108,6 +108,7 @@ class PlaceLedger {
   Standing standing(const Rival& r) const;
   bool proven(const Rival& r) const;
   bool plausible(const Verdict& v) const;
+  std::vector<Verdict> judge_all(const std::vector<Pose>& places) const;
   double counted(double evidence, bool track_mapped) const;
   void refute(const Pose& relative);
   // The rivals and refuted places kept where the odometry carries them, relative to a track that moved.
@@ -129,7 +130,7 @@ class PlaceLedger {
   Pose track_ = Pose::Identity();
   double travel_ = 0.0;         // m of odometry since the reset
   double judged_travel_ = 0.0;  // of which the map covered most of the track's scan
-  std::size_t failing_ = 0;  // updates in a row the track failed on its own while holding
+  std::size_t failing_ = 0;     // updates in a row the track failed on its own while holding
   std::vector<Rival> rivals_;
   std::vector<Pose> refuted_;  // relative to the track
 };

@@ -32,7 +32,7 @@ struct PoseEstimateOptions {
   double converged_weight = 0.8;
   double converged_std_xyz = 0.25;         // m
   double converged_std_angle = 0.0872665;  // rad (5°)
-  std::size_t max_places = 8;          // modes described in PoseEstimate::places (the heaviest)
+  std::size_t max_places = 8;              // modes described in PoseEstimate::places (the heaviest)
   // Particles lighter than this share of the heaviest take no part in mode finding (during global localization
   // most of the set). Low, so that a faint place (a look-alike the challengers just found) is a mode.
   double min_relative_weight = 1e-30;
@@ -146,7 +146,7 @@ class PoseEstimator {
   std::vector<Moments> moments(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k) const;
   // Places 0..k-1 (the heaviest components, ranked) from their particles.
   std::vector<Place> describe(const ParticleArrays& p, const double* w, std::size_t n, std::size_t k,
-                                   double total) const;
+                              double total) const;
   PoseEstimateOptions options_;
   struct Slot {
     std::uint64_t key = 0;  // the cell's hash, 0 = empty

@@ -63,7 +63,8 @@ class SubsetFirstWeighing {
   void weigh_chosen(SensorEvaluator& evaluator, const std::vector<std::uint32_t>& chosen,
                     const std::vector<Eigen::Vector3f>& points, const EndpointModel& model, UpdateTimings& sum);
 
-  // Which pass first weighs each of m points (pass_of_point_): the first's, the middle's (where there is one), the rest.
+  // Which pass first weighs each of m points (pass_of_point_): the first's, the middle's (where there is one), the
+  // rest.
   void assign_passes(std::size_t m, bool middle);
   // The points of one pass into subset_; returns how many.
   std::size_t points_of_pass(const std::vector<Eigen::Vector3f>& points, std::uint8_t pass);

@@ -30,28 +30,28 @@
 namespace tsdf_mcl {
 
 struct StateOptions {
-  double min_inliers = 0.5;           // converged_min_inliers
-  double min_coverage = 0.5;          // converged_min_coverage
-  std::size_t min_updates = 3;        // converged_min_updates
+  double min_inliers = 0.5;            // converged_min_inliers
+  double min_coverage = 0.5;           // converged_min_coverage
+  std::size_t min_updates = 3;         // converged_min_updates
   double travel_after_change_m = 5.0;  // converged_travel_after_jump
-  double ambiguous_weight = 0.1;      // a second place holding this share makes a belief ambiguous
+  double ambiguous_weight = 0.1;       // a second place holding this share makes a belief ambiguous
 
   void validate() const;  // throws Error naming the parameter
 };
 
 // What one filter update says, for the state machine.
 struct StateEvidence {
-  Pose place;                 // the place the estimate reports (the track)
-  Pose motion;                // odometry since the last update (identity without)
-  bool concentrated = false;  // the dominant place holds the belief, compact
-  double inliers = 0.0;       // inlier ratio at the place (over its observed points)
-  double coverage = 1.0;      // map coverage there
+  Pose place;                  // the place the estimate reports (the track)
+  Pose motion;                 // odometry since the last update (identity without)
+  bool concentrated = false;   // the dominant place holds the belief, compact
+  double inliers = 0.0;        // inlier ratio at the place (over its observed points)
+  double coverage = 1.0;       // map coverage there
   double second_weight = 0.0;  // the second place's share of the belief
-  bool searched = true;       // the background search has weighed the belief since it concentrated
+  bool searched = true;        // the background search has weighed the belief since it concentrated
   bool rival_undecided = false;
   bool rival_proven = false;
-  bool holding = false;       // the belief moved to a challenger the ledger has not decided
-  bool implausible = false;   // the fit at the track is implausible (two updates)
+  bool holding = false;        // the belief moved to a challenger the ledger has not decided
+  bool implausible = false;    // the fit at the track is implausible (two updates)
   bool recovery_lost = false;  // recovery moves most of the belief elsewhere
 };
 
