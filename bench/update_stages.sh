@@ -50,9 +50,13 @@ phases = {
     "global": [s for s in updates if s["particles"] >= 50000],
     "tracking": updates[first:] if first is not None else [],
 }
+# The update's stages (filter_core's StepTimings); weight_gpu and reduce_gpu are the GPU's share of weight, load and
+# preprocess come before the update.
+STAGES = ("motion", "upload", "weight", "walls", "own_points", "tempering", "places", "ledger", "decision", "resample")
+
 def untimed(scan):
     t = scan["timings_ms"]
-    staged = sum(v or 0.0 for k, v in t.items() if k not in ("update_total", "preprocess"))
+    staged = sum(t.get(k) or 0.0 for k in STAGES)
     return 1.0 - staged / t["update_total"] if t["update_total"] > 0 else 0.0
 
 for phase, scans in phases.items():
@@ -60,8 +64,7 @@ for phase, scans in phases.items():
         continue
     def median(key):
         return statistics.median(s["timings_ms"].get(key) or 0.0 for s in scans)
-    keys = [k for k in scans[0]["timings_ms"] if k not in ("update_total", "preprocess")]
-    stages = {k: round(median(k), 3) for k in keys}
+    stages = {k: round(median(k), 3) for k in STAGES}
     total = median("update_total")
     host = statistics.median(
         s["timings_ms"]["update_total"] - (s["timings_ms"].get("upload") or 0) - (s["timings_ms"].get("weight") or 0)
