@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "error_text.hpp"
+#include "error_message.hpp"
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/io/dataset.hpp"
 #include "tsdf_mcl/core/error.hpp"

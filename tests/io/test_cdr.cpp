@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "error_text.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/cdr.hpp"
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "error_text.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/pointcloud2.hpp"
 #include "tsdf_mcl/io/ros2_messages.hpp"

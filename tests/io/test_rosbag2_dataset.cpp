@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "error_text.hpp"
+#include "error_message.hpp"
 #include "map_test_helpers.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/bag_writer.hpp"

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <string>
 
-#include "error_text.hpp"
+#include "error_message.hpp"
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/io/transform_tree.hpp"
 
