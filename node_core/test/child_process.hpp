@@ -8,6 +8,8 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -65,5 +67,18 @@ class Child {
   std::string name_;
   pid_t pid_ = -1;
 };
+
+// Waits until the log file holds `text` (a line the child wrote), or `timeout`. A node's first log lines leave before
+// any subscriber of /rosout has connected to it: its own output is where they are sure to be.
+inline bool log_holds(const std::filesystem::path& log, const std::string& text, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    std::ifstream in(log);
+    const std::string held((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (held.find(text) != std::string::npos) return true;
+    if (std::chrono::steady_clock::now() >= end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
 
 }  // namespace tsdf_mcl::node::test

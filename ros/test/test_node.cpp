@@ -245,7 +245,20 @@ class BagSession {
     node_->stop();
     ASSERT_TRUE(fs::exists(dir_ / "ros" / "tsdf_mcl_last_pose.json")) << "no last pose kept";
     node_.emplace(node_args_, dir_ / "node2.log");
-    ASSERT_TRUE(recorder_.wait_for_log("starting at the last converged pose", 120s)) << "see " << dir_ / "node2.log";
+    // The new node answers a service once its start is behind it (a call to the stopped one fails); stopped, its
+    // output is in its log. (Its first log lines leave before any subscriber of /rosout has connected to it.)
+    std_srvs::Empty call;
+    const auto end = std::chrono::steady_clock::now() + 120s;
+    bool answered = false;
+    while (!answered && std::chrono::steady_clock::now() < end) {
+      ASSERT_TRUE(node_->running()) << "the restarted node died; see " << dir_ / "node2.log";
+      ros::service::waitForService("/global_localization", ros::Duration(1.0));
+      answered = ros::service::call("/global_localization", call);
+    }
+    ASSERT_TRUE(answered) << "the restarted node never answered; see " << dir_ / "node2.log";
+    node_->stop();
+    EXPECT_TRUE(node::test::log_holds(dir_ / "node2.log", "starting at the last converged pose", 10s))
+        << "see " << dir_ / "node2.log";
   }
 
   void wait_until_up() {
