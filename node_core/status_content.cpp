@@ -74,7 +74,8 @@ std::string state_reason(const FilterStep& step) {
   const PoseEstimate& e = step.estimate;
   std::string text = to_string(step.reason);
   if (!step.rivals.empty()) text += format(" (%zu followed)", step.rivals.size());
-  text += format("; %zu places, the best holds %.0f %% of the belief", e.places.size(), 100.0 * best_share(step));
+  text += format("; %zu place%s, the best holds %.0f %% of the belief", e.places.size(),
+                 e.places.size() == 1 ? "" : "s", 100.0 * best_share(step));
   // No fit before the first update.
   if (std::isfinite(e.inlier_ratio) && std::isfinite(e.coverage)) {
     text += format("; %.0f %% of the scan fits, the map covers %.0f %%", 100.0 * e.inlier_ratio, 100.0 * e.coverage);

@@ -75,6 +75,6 @@ fi
 sleep 0.2  # let the tee'd logs flush
 step "result"
 tail -n 1 "$out/localize.log" >&2
-tail -n 2 "$out/evaluate.log" >&2
+tail -n 3 "$out/evaluate.log" >&2
 echo "metrics:  $out/metrics.json   per-scan report: $out/run/report.json" >&2
 echo "pictures: $out/trajectory.png $out/particles.png $out/translation_error.png" >&2

@@ -62,6 +62,13 @@ TEST(StatusContent, EachStateSaysWhy) {
   EXPECT_EQ(state_reason(step),
             "the map covers too little of the scan; 2 places, the best holds 55 % of the belief; 90 % of the scan "
             "fits, the map covers 25 %");
+  step.state = TrackState::kConverged;
+  step.reason = StateReason::kProven;
+  step.estimate.places = {a};
+  EXPECT_EQ(state_reason(step),
+            "every rival refuted; 1 place, the best holds 55 % of the belief; 90 % of the scan fits, the map covers "
+            "25 %");
+  step.estimate.places = {a, b};
   EXPECT_EQ(places_text(step.estimate.places),
             "55 % at (0.00, 0.00, 0.00, yaw 0 deg); 45 % at (10.00, 0.00, 0.00, yaw 180 deg)");
   EXPECT_EQ(positions_text(step.rivals), "");

@@ -436,7 +436,7 @@ std::vector<PoseMarker> hypothesis_markers(const ParticleSnapshot& snapshot) {
     Pose pose = Pose::Identity();
     pose.translation() = h.position.cast<double>();
     pose.linear() = h.orientation.cast<double>().toRotationMatrix();
-    markers.push_back({pose, palette_color(0), markers.empty() ? "hypotheses (share of the weight)" : "", share});
+    markers.push_back({pose, palette_color(0), markers.empty() ? "places (share of the belief)" : "", share});
   }
   return markers;
 }
