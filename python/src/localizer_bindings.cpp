@@ -58,8 +58,8 @@ PyResult result_of(const ScanRecord& r, double process_ms) {
   out.updated = s.updated;
   out.resampled = s.resampled;
   out.converged = e.converged;
-  out.estimate = {e.pose,         e.covariance,   e.mode_weight,   e.std_position,
-                  e.std_rotation, e.inlier_ratio, e.mode_particles};
+  out.estimate = {e.pose,         e.covariance,   e.place_weight,   e.std_position,
+                  e.std_rotation, e.inlier_ratio, e.place_particles};
   for (const Place& h : e.places) out.places.push_back(place_of(h));
   out.particles = s.particles;
   out.next_particles = s.next_particles;
@@ -262,7 +262,7 @@ void register_results(py::module_& m) {
       .def_property_readonly(
           "covariance", [](const PyResult& r) { return matrix_array(r.estimate.covariance); },
           "6x6: x, y, z (m), then the rotation vector in the sensor frame (rad)")
-      .def_property_readonly("mode_weight", [](const PyResult& r) { return r.estimate.weight; })
+      .def_property_readonly("place_weight", [](const PyResult& r) { return r.estimate.weight; })
       .def_property_readonly("inlier_ratio", [](const PyResult& r) { return r.estimate.inlier_ratio; })
       .def_readonly("places", &PyResult::places, "the belief's places (its heaviest modes), heaviest first")
       .def_readonly("particles", &PyResult::particles, "particles weighted in this update")

@@ -28,7 +28,7 @@ def test_same_run_as_the_cli(scene, cli, tmp_path):
         e = s["estimate"]
         assert tuple(r.estimate[:3, 3]) == (e["x"], e["y"], e["z"])
         assert r.converged == s["converged"]
-        assert r.mode_weight == s["mode_weight"]
+        assert r.place_weight == s["place_weight"]
         assert r.particles == s["particles"]
         assert r.ess == s["ess"]
         assert r.points["used"] == s["points"]["used"]

@@ -124,7 +124,7 @@ PoseEstimate PoseEstimator::estimate(const ParticleArrays& p, const double* w, s
   bin_particles(p, w, n, options_.min_relative_weight * w_max);
   join_neighbour_cells();
   PoseEstimate e;
-  const std::size_t k = rank_components(&e.modes);
+  const std::size_t k = rank_components(&e.place_count);
   e.places = describe(p, w, n, k, total);
   e.converged = take_dominant_place(e, options_);
   if (options_.best_particle) {
@@ -271,8 +271,8 @@ bool take_place(PoseEstimate& e, std::size_t index, const PoseEstimateOptions& o
   const Place& top = e.places[index];
   if (!o.best_particle) e.pose = top.pose;
   e.covariance = top.covariance;
-  e.mode_weight = top.weight;
-  e.mode_particles = top.particles;
+  e.place_weight = top.weight;
+  e.place_particles = top.particles;
   e.std_position = top.std_position;
   e.std_rotation = top.std_rotation;
   e.inlier_ratio = top.inlier_ratio;

@@ -75,8 +75,8 @@ nlohmann::json scan_json(const ScanRecord& r) {
   }
   j["estimate"] = pose_json(e.pose);
   j["converged"] = e.converged;
-  j["mode_weight"] = e.mode_weight;
-  j["modes"] = e.modes;
+  j["place_weight"] = e.place_weight;
+  j["place_count"] = e.place_count;
   j["std_position_m"] = e.std_position;
   j["std_rotation_deg"] = e.std_rotation * kDeg;
   j["inlier_ratio"] = number_or_null(e.inlier_ratio);

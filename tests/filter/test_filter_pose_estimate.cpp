@@ -71,9 +71,9 @@ TEST(PoseEstimator, PicksTheDominantModeNotTheMeanOfTheCloud) {
   PoseEstimate e = estimator.estimate(p.view, w.data(), 1000);
   EXPECT_LT((e.pose.translation() - a.cast<double>()).norm(), 0.02);
   EXPECT_LT(angle(Eigen::Quaterniond(e.pose.linear()), qa.cast<double>()), 0.01);
-  EXPECT_EQ(e.modes, 2u);
-  EXPECT_EQ(e.mode_particles, 600u);
-  EXPECT_NEAR(e.mode_weight, 0.6, 1e-9);
+  EXPECT_EQ(e.place_count, 2u);
+  EXPECT_EQ(e.place_particles, 600u);
+  EXPECT_NEAR(e.place_weight, 0.6, 1e-9);
   EXPECT_FALSE(e.converged);  // 60 % of the weight is not enough
 
   // Heavier weights on the smaller cloud move the estimate there.
@@ -81,7 +81,7 @@ TEST(PoseEstimator, PicksTheDominantModeNotTheMeanOfTheCloud) {
   e = estimator.estimate(p.view, w.data(), 1000);
   EXPECT_LT((e.pose.translation() - b.cast<double>()).norm(), 0.02);
   EXPECT_LT(angle(Eigen::Quaterniond(e.pose.linear()), qb.cast<double>()), 0.01);
-  EXPECT_NEAR(e.mode_weight, 800.0 / 1400.0, 1e-9);
+  EXPECT_NEAR(e.place_weight, 800.0 / 1400.0, 1e-9);
 }
 
 TEST(PoseEstimator, CovarianceOfAGaussianCloudAndConvergence) {
@@ -98,7 +98,7 @@ TEST(PoseEstimator, CovarianceOfAGaussianCloudAndConvergence) {
   }
   PoseEstimator estimator{PoseEstimateOptions{}};
   const PoseEstimate e = estimator.estimate(p.view, w.data(), n);
-  EXPECT_EQ(e.modes, 1u);
+  EXPECT_EQ(e.place_count, 1u);
   EXPECT_LT((e.pose.translation() - Eigen::Vector3d(2, 3, 1)).norm(), 0.005);
   for (int a = 0; a < 3; ++a) {
     EXPECT_NEAR(std::sqrt(e.covariance(a, a)), sigma_p[a], 0.05 * sigma_p[a]) << "position axis " << a;
@@ -155,7 +155,7 @@ TEST(PoseEstimator, YawWrapsAroundAndBestParticleOption) {
   w[37] = 5.0;
   PoseEstimator estimator{PoseEstimateOptions{}};
   const PoseEstimate e = estimator.estimate(p.view, w.data(), 200);
-  EXPECT_EQ(e.modes, 1u);
+  EXPECT_EQ(e.place_count, 1u);
   EXPECT_LT(
       angle(Eigen::Quaterniond(e.pose.linear()), Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))),
       0.01);

@@ -78,11 +78,11 @@ struct PoseEstimate {
   // Covariance of (x, y, z, rx, ry, rz): position in the world frame, rotation as the rotation vector of
   // mean⁻¹ · R (tangent space at the mean, body frame). Weighted over the dominant mode's particles.
   Matrix6d covariance = Matrix6d::Zero();
-  double mode_weight = 0.0;  // share of the total weight in the dominant mode
-  std::size_t mode_particles = 0;
-  std::size_t modes = 0;      // connected components found
-  double std_position = 0.0;  // m, sqrt of the largest position-covariance eigenvalue
-  double std_rotation = 0.0;  // rad, likewise for rotation
+  double place_weight = 0.0;  // share of the total weight in the dominant place
+  std::size_t place_particles = 0;
+  std::size_t place_count = 0;  // connected components found: places, described or not
+  double std_position = 0.0;    // m, sqrt of the largest position-covariance eigenvalue
+  double std_rotation = 0.0;    // rad, likewise for rotation
   // The mode is concentrated (PoseEstimateOptions); ParticleFilter adds its own conditions (fit, persistence,
   // recovery), see particle_filter.hpp.
   bool converged = false;
