@@ -42,7 +42,9 @@ void expect_consistent_timings(const nlohmann::json& row) {
   EXPECT_NEAR(row["evals_per_s"].get<double>(), evals / (median * 1e-3), 1e-9 * evals / (median * 1e-3)) << row.dump();
   EXPECT_LE(row["min_ms"].get<double>(), median) << row.dump();
   EXPECT_GT(row["min_ms"].get<double>(), 0.0) << row.dump();
-  if (!row["gpu_ms"].is_null()) EXPECT_LE(row["gpu_ms"].get<double>(), median) << row.dump();
+  if (!row["gpu_ms"].is_null()) {
+    EXPECT_LE(row["gpu_ms"].get<double>(), median) << row.dump();
+  }
 }
 
 // bench: one JSON line per backend and particle count, with the fields docs/architecture.md names.
