@@ -69,8 +69,11 @@ ParticleFilter::Core::Injection ParticleFilter::Core::plan_injection(double time
     in.candidates = in.count;
     in.share = restore_->share;
     in.around = restore_->place;
-  } else if (params_.recovery.challenger_candidates > 0 && concentrated_once() &&
+  } else if (params_.recovery.challenger_candidates > 0 &&
+             (concentrated_once() || (local_start_ && step_ >= params_.states.min_updates)) &&
              time - last_challenge_time_ >= params_.recovery.challenger_interval) {
+    // A local start's particles cover only the given pose's neighbourhood: one whose belief has not concentrated in
+    // the updates a claim takes (a wrong pose that fits nowhere near) is questioned as a concentrated one is.
     in.candidates = params_.recovery.challenger_candidates;
     in.count = std::max<std::size_t>(1, in.candidates / 200);
     // A tenth of a credible share: one scan that a challenger explains clearly better makes it credible.

@@ -63,10 +63,12 @@ struct RecoveryOptions {
   // lock however steady its fit: a share 1 - ratio / this of the next generation comes from the proposal, screened on
   // the scan, and the filter searches again. 0 = off.
   double min_inliers = 0.3;  // recovery_min_inliers
-  // Challengers, a background search once the belief has concentrated: every challenger_interval seconds this many
-  // hypotheses from the proposal are screened on the scan and the best 1/200 join the belief with a tenth of
-  // PlaceOptions::credible_weight together (one scan a challenger explains clearly better makes it credible); the
-  // particles outside the heaviest places keep that many through resampling. 0 candidates = off.
+  // Challengers, a background search once the belief has concentrated (after a local start, also once the updates a
+  // claim takes have passed without):
+  // every challenger_interval seconds this many hypotheses from the proposal are screened on the scan and the best
+  // 1/200 join the belief with a tenth of PlaceOptions::credible_weight together (one scan a challenger explains
+  // clearly better makes it credible); the particles outside the heaviest places keep that many through
+  // resampling. 0 candidates = off.
   std::size_t challenger_candidates = 20000;
   double challenger_interval = 0.5;  // s
 
