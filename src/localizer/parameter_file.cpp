@@ -1,5 +1,6 @@
 #include "tsdf_mcl/localizer/parameter_file.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <nlohmann/json.hpp>
@@ -8,7 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <vector>
+#include <sstream>
 
 #include "tsdf_mcl/core/error.hpp"
 #include "tsdf_mcl/core/input_file.hpp"
@@ -81,6 +82,29 @@ void check_strict_json(const std::string& text, const std::string& path) {
   }
 }
 
+// Counts a text's YAML documents, stopping at two. yaml-cpp 0.7's LoadAll never ends on some malformed texts
+// (",:red" parses as an endless run of empty documents), so the documents are counted, capped, before one is loaded.
+int count_documents(const std::string& text) {
+  struct DocumentCounter : YAML::EventHandler {
+    int documents = 0;
+    void OnDocumentStart(const YAML::Mark&) override { ++documents; }
+    void OnDocumentEnd() override {}
+    void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+    void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+    void OnSequenceEnd() override {}
+    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+    void OnMapEnd() override {}
+  };
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentCounter counter;
+  int parsed = 0;
+  while (parsed < 2 && parser.HandleNextDocument(counter)) ++parsed;
+  return parsed;
+}
+
 class Flattener {
  public:
   Flattener(std::string file, std::function<bool(const std::string&)> list_field)
@@ -144,13 +168,11 @@ std::map<std::string, std::string> read_parameter_file(const std::string& path,
   check_text(text, path);
   if (is_json(path)) check_strict_json(text, path);
   try {
-    const std::vector<YAML::Node> documents = YAML::LoadAll(text);
     // The parameters are the file's one document: a second one (after ---) would otherwise be dropped unread.
-    if (documents.size() > 1) {
-      throw Error(path + ": holds " + std::to_string(documents.size()) +
-                  " YAML documents (separated by ---); a parameter file is one");
+    if (count_documents(text) > 1) {
+      throw Error(path + ": holds more than one YAML document (separated by ---?); a parameter file is one");
     }
-    const YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
+    const YAML::Node root = YAML::Load(text);
     if (!root.IsMap()) throw Error(path + ": expected a map of parameter names to values");
     Flattener flattener(path, list_field);
     flattener.add(root, "", 0);

@@ -194,7 +194,10 @@ TEST(ParameterFile, HostileFilesAreOneErrorNamingFileAndField) {
 TEST(ParameterFile, StrictFormsAreOneErrorNamingTheFile) {
   TempDir dir;
   std::string e = file_error(dir, "two.yaml", "particles: 100\n---\nparticles: 5\n");
-  EXPECT_NE(e.find("two.yaml: holds 2 YAML documents"), std::string::npos) << e;
+  EXPECT_NE(e.find("two.yaml: holds more than one YAML document"), std::string::npos) << e;
+  // yaml-cpp's LoadAll reads this as endless empty documents (the config fuzzer's timeout): an error, at once.
+  e = file_error(dir, "endless.yaml", ",:red");
+  EXPECT_NE(e.find("endless.yaml: "), std::string::npos) << e;
   e = file_error(dir, "comma.json", R"({"particles": 100,})");
   EXPECT_NE(e.find("comma.json: not valid JSON"), std::string::npos) << e;
   EXPECT_EQ(file_error(dir, "comma.yaml", "{particles: 100,}"), "") << "YAML's flow style allows it";
