@@ -103,9 +103,8 @@ RefinedPlaces refine_places(const TsdfMap& map, const std::vector<Place>& h, con
     places.pose[r] = s.pose;
     places.point_log[r].swap(s.log);
   }
-#pragma omp parallel for schedule(dynamic)
-  for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(h.size()); ++rr) {
-    const auto r = static_cast<std::size_t>(rr);
+  // One place at a time, each fit's rays on every thread (ray_fit): a track has one or two places.
+  for (std::size_t r = 0; r < h.size(); ++r) {
     places.fit[r] = ray_fit(map, places.pose[r], points, inlier_distance, kSeeThroughMargin, &places.observed[r]);
     if (frontier_reach > 0.0f) drop_frontier_points(map, places.pose[r], points, frontier_reach, places.observed[r]);
   }

@@ -33,6 +33,9 @@ double inlier_ratio(const TsdfMap& map, const Pose& pose, const std::vector<Eige
 
 namespace {
 
+// Below this many points a scan's rays are marched on one thread: a parallel region costs more than it saves.
+constexpr std::ptrdiff_t kParallelPoints = 256;
+
 // A ray from the sensor to a scan point's endpoint through the map, in grid units (ray_fit). `direction` is grid
 // units per metre along the ray, so that distances along it count metres.
 struct Ray {
@@ -161,7 +164,14 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
   const auto inside_limit = static_cast<std::int32_t>(std::floor(-2.0f * voxel / view.quant_step));
   const auto front_rise = static_cast<std::int32_t>(std::ceil(0.4f * voxel / view.quant_step));
   const GridPose grid(pose, view);
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  // Points are independent and the counts integers: the same fit on any number of threads (one inside a parallel
+  // region, where OpenMP does not nest).
+  std::size_t see_through = 0, back_faces = 0, observed_points = 0, inliers = 0;
+  const auto count = static_cast<std::ptrdiff_t>(points.size());
+#pragma omp parallel for schedule(dynamic, 32) reduction(+ : see_through, back_faces, observed_points, inliers) \
+    if (count >= kParallelPoints)
+  for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
     const Eigen::Vector3f& p = points[i];
     // The endpoint as the sensor update computes it, so that "inlier" means what the likelihood saw.
     float g[3];
@@ -175,22 +185,26 @@ RayFit ray_fit(const TsdfMap& map, const Pose& pose, const std::vector<Eigen::Ve
     const Ray ray{view, voxel, inside_limit, front_rise, grid.origin, direction};
     bool met_surface = false;  // the ray met the inside of a surface on its way (Ray::passes_through)
     const bool through = length > end_margin && ray.passes_through(length - end_margin, &met_surface);
-    if (through) ++fit.see_through;
+    if (through) ++see_through;
     bool evidence = through;
     if (at_end != TsdfMap::kUnknownValue) {
       // An endpoint inside a surface reached from its back is unobserved (Ray::entered_from_front), however near
       // the face: it lies on the far face of a wall, which the map does not hold. One in free space is evidence.
       evidence =
           evidence || met_surface || at_end >= 0 || length <= 3.0f * voxel || ray.entered_from_front(end, at_end);
-      if (!evidence) ++fit.back_faces;
+      if (!evidence) ++back_faces;
     } else {
       evidence = evidence || met_surface || ray.surface_before_end(end, length, end_margin);
     }
     if (!evidence) continue;
-    ++fit.observed;
+    ++observed_points;
     if (observed) (*observed)[i] = 1;
-    if (at_end != TsdfMap::kUnknownValue && std::abs(at_end) <= near_limit) ++fit.inliers;
+    if (at_end != TsdfMap::kUnknownValue && std::abs(at_end) <= near_limit) ++inliers;
   }
+  fit.see_through = see_through;
+  fit.back_faces = back_faces;
+  fit.observed = observed_points;
+  fit.inliers = inliers;
   return fit;
 }
 
@@ -250,7 +264,10 @@ std::size_t drop_frontier_points(const TsdfMap& map, const Pose& pose, const std
   const GridPose grid(pose, view);
   const float reach_grid = reach * view.inv_voxel;
   std::size_t dropped = 0;
-  for (std::size_t j = 0; j < points.size() && j < observed.size(); ++j) {
+  const auto count = static_cast<std::ptrdiff_t>(std::min(points.size(), observed.size()));
+#pragma omp parallel for schedule(static) reduction(+ : dropped) if (count >= kParallelPoints)
+  for (std::ptrdiff_t jj = 0; jj < count; ++jj) {
+    const auto j = static_cast<std::size_t>(jj);
     if (!observed[j]) continue;
     const float range = points[j].norm();
     if (!(range > 0.0f)) continue;

@@ -97,9 +97,15 @@ std::vector<Patch> planar_patches(const std::vector<Eigen::Vector3f>& points, co
     voxels.at(voxel_key(c(p.x()), c(p.y()), c(p.z()))).add(p);
   }
 
-  std::vector<Patch> patches;
-  patches.reserve(voxels.keys().size());
-  for (const std::uint64_t key : voxels.keys()) {
+  // Each voxel's fit reads the table only: in parallel, kept in the table's order (the same patches on any number
+  // of threads).
+  const std::vector<std::uint64_t>& keys = voxels.keys();
+  std::vector<Patch> fitted(keys.size());
+  std::vector<std::uint8_t> flat(keys.size(), 0);
+#pragma omp parallel for schedule(static) if (keys.size() >= 256)
+  for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(keys.size()); ++kk) {
+    const auto k = static_cast<std::size_t>(kk);
+    const std::uint64_t key = keys[k];
     const int x = static_cast<int>(key & 0x1FFFFFu) - (1 << 20);
     const int y = static_cast<int>((key >> 21) & 0x1FFFFFu) - (1 << 20);
     const int z = static_cast<int>((key >> 42) & 0x1FFFFFu) - (1 << 20);
@@ -125,7 +131,12 @@ std::vector<Patch> planar_patches(const std::vector<Eigen::Vector3f>& points, co
     // one beam are straight lines whose "normal" is arbitrary.
     if (!(l[0] < 0.05 * l[1] && l[1] > 0.05 * l[2])) continue;
     const Moments& own = *voxels.find(key);
-    patches.push_back({own.sum / own.n, eig.eigenvectors().col(0).normalized()});
+    fitted[k] = {own.sum / own.n, eig.eigenvectors().col(0).normalized()};
+    flat[k] = 1;
+  }
+  std::vector<Patch> patches;
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    if (flat[k]) patches.push_back(fitted[k]);
   }
   return patches;
 }
