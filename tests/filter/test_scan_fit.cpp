@@ -1,6 +1,7 @@
 // scan_fit.hpp: map evidence per scan point (RayFit: unknown is unknown) and paired evidence between two poses on the
 // points both observe.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -58,6 +59,47 @@ TEST(MapEvidence, UnobservedOnlyWhereTheMapNeverLooked) {
   EXPECT_EQ(there.observed, 0u);
   EXPECT_DOUBLE_EQ(there.coverage(), 0.0);
   EXPECT_DOUBLE_EQ(there.inlier_ratio(), 0.0);
+}
+
+// ray_fit and drop_frontier_points split a scan over the OpenMP threads: the counts and the mask must not depend on
+// how many there are (a dense ring of rays into both rooms, the door and the block: every kind of ray).
+TEST(MapEvidence, TheSameOnAnyNumberOfThreads) {
+  const TsdfMap map = west_room_map();
+  const Pose at = pose_from_xyz_rpy(4.5, 2.2, 1.2, 0.02, -0.03, 0.4);
+  const double deg = std::acos(-1.0) / 180.0;
+  std::vector<Eigen::Vector3f> points;
+  for (int e = -8; e <= 8; ++e) {
+    for (int a = 0; a < 72; ++a) {
+      const double azimuth = a * 5.0 * deg;
+      const double elevation = e * 4.0 * deg;
+      const float range = 1.0f + 0.37f * static_cast<float>((a * 7 + e * 3 + 40) % 17);
+      points.emplace_back(range * Eigen::Vector3f(static_cast<float>(std::cos(elevation) * std::cos(azimuth)),
+                                                  static_cast<float>(std::cos(elevation) * std::sin(azimuth)),
+                                                  static_cast<float>(std::sin(elevation))));
+    }
+  }
+  const auto fit_with = [&](int threads, std::vector<std::uint8_t>& observed, std::size_t& dropped) {
+    omp_set_num_threads(threads);
+    const RayFit fit = ray_fit(map, at, points, 0.2f, 0.4f, &observed);
+    dropped = drop_frontier_points(map, at, points, 0.3f, observed);
+    return fit;
+  };
+  const int threads = omp_get_max_threads();
+  std::vector<std::uint8_t> one_mask, two_mask;
+  std::size_t one_dropped = 0, two_dropped = 0;
+  const RayFit one = fit_with(1, one_mask, one_dropped);
+  const RayFit two = fit_with(std::max(2, threads), two_mask, two_dropped);
+  omp_set_num_threads(threads);
+  ASSERT_GT(points.size(), 1000u);
+  EXPECT_GT(one.observed, 0u);
+  EXPECT_GT(one.inliers, 0u);
+  EXPECT_LT(one.observed, points.size()) << "some rays must end in the unmapped room";
+  EXPECT_EQ(one.observed, two.observed);
+  EXPECT_EQ(one.inliers, two.inliers);
+  EXPECT_EQ(one.see_through, two.see_through);
+  EXPECT_EQ(one.back_faces, two.back_faces);
+  EXPECT_EQ(one_mask, two_mask);
+  EXPECT_EQ(one_dropped, two_dropped);
 }
 
 // A wall whose west face (x = 0) the mapping run saw from the west only, as scan integration leaves it: observed
